@@ -1,0 +1,41 @@
+# robolab_ms: two commands for a new machine.
+#   make demo   set up (.venv, dependencies, rendering) and run a small evaluation
+#   make test   set up and run the test suite
+# Both are idempotent: a second run only re-installs robolab_ms when its sources changed.
+
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+DEPS_STAMP := $(VENV)/.deps-installed
+PKG_STAMP := $(VENV)/.robolab-installed
+SOURCES := $(shell find robolab_ms eval analysis assets scene_builders task_specs -type f \
+             -not -path '*/__pycache__/*' 2>/dev/null) pyproject.toml setup.py
+
+.PHONY: demo test setup render-check clean
+
+demo: setup
+	$(BIN)/robolab eval --policy random --task BananaInBowl --episodes 2 --out results/demo
+
+test: setup
+	$(BIN)/pytest -q
+
+setup: $(PKG_STAMP) render-check
+
+$(DEPS_STAMP): requirements.lock
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade "pip>=24"
+	$(BIN)/python -m pip install --quiet -r requirements.lock
+	@touch $@
+
+# A regular (not editable) install: the package is used exactly as a user gets it, start-up hook included.
+$(PKG_STAMP): $(DEPS_STAMP) $(SOURCES)
+	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation --force-reinstall .
+	@rm -rf build *.egg-info
+	$(BIN)/python -m pip check
+	@touch $@
+
+render-check: $(PKG_STAMP)
+	@scripts/setup_vulkan.sh $(BIN)/python
+
+clean:
+	rm -rf $(VENV) build *.egg-info results

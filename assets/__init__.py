@@ -1,0 +1,1 @@
+"""Object catalog data (catalog.yaml) shipped with robolab_ms."""

@@ -1,0 +1,1 @@
+"""Evaluation: the runner and the results format (importable as robolab_ms.eval)."""

@@ -1,0 +1,78 @@
+"""The results format: one JSON line per episode in `episodes.jsonl`, appended and flushed as each episode ends.
+
+Every line records the tuple that defines its episode (task, instruction variant, robot, policy, seed), so any
+episode can be replayed, and the outcome (success, score, progress, steps, timings, error). Tables are derived from
+these lines, never the other way round. A run interrupted mid-line leaves at most one partial last line, which
+`read_results` ignores, so a rerun resumes after the last complete episode.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+EPISODES_FILE = "episodes.jsonl"
+RESULTS_VERSION = 1
+
+
+@dataclass
+class EpisodeResult:
+    task: str
+    instruction_variant: str
+    instruction: str
+    robot: str
+    policy: str
+    seed: int
+    success: bool
+    score: float
+    progress: float
+    steps: int
+    max_steps: int
+    success_step: int | None
+    wall_seconds: float
+    error: str | None = None
+    events: list[dict[str, Any]] = field(default_factory=list)
+    metrics: dict[str, float] = field(default_factory=dict)
+    version: int = RESULTS_VERSION
+
+    def key(self) -> tuple:
+        return episode_key(self.task, self.instruction_variant, self.robot, self.policy, self.seed)
+
+
+def episode_key(task: str, variant: str, robot: str, policy: str, seed: int) -> tuple:
+    return (task, variant, robot, policy, seed)
+
+
+def append_result(out_dir: Path, result: EpisodeResult) -> None:
+    """Append one episode and make sure it is on disk before returning."""
+    path = Path(out_dir) / EPISODES_FILE
+    line = json.dumps(asdict(result), sort_keys=True)
+    with path.open("a", encoding="utf-8") as handle:
+        if handle.tell() > 0 and not _ends_with_newline(path):
+            handle.write("\n")  # a previous run died mid-line: start a fresh line
+        handle.write(line + "\n")
+        handle.flush()
+        os.fsync(handle.fileno())
+
+
+def _ends_with_newline(path: Path) -> bool:
+    with path.open("rb") as handle:
+        handle.seek(-1, os.SEEK_END)
+        return handle.read(1) == b"\n"
+
+
+def read_results(out_dir: Path) -> list[EpisodeResult]:
+    """All complete episode lines of a results folder (partial or foreign lines are skipped)."""
+    path = Path(out_dir) / EPISODES_FILE
+    if not path.exists():
+        return []
+    results = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            results.append(EpisodeResult(**json.loads(line)))
+        except (json.JSONDecodeError, TypeError):
+            continue
+    return results

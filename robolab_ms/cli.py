@@ -1,0 +1,103 @@
+"""The `robolab` command line: list tasks, evaluate policies.
+
+Examples:
+  robolab list
+  robolab eval --policy random --task BananaInBowl --episodes 2 --out results/demo
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from robolab_ms.errors import RoboLabError
+
+
+def _cmd_list(args: argparse.Namespace) -> int:
+    from robolab_ms.tasks.spec import load_all_tasks
+
+    tasks = load_all_tasks()
+    rows = [("task", "env id", "scene", "attributes", "axes", "subtasks", "difficulty", "seconds")]
+    for spec in tasks:
+        rows.append((spec.name, spec.env_id, spec.scene.name, ",".join(spec.attributes) or "-",
+                     ",".join(spec.axes) or "-", str(spec.num_subtasks),
+                     f"{spec.difficulty} ({spec.difficulty_score})", f"{spec.episode_seconds:g}"))  # fmt: skip
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    for row in rows:
+        print("  ".join(cell.ljust(width) for cell, width in zip(row, widths)).rstrip())
+    print(f"\n{len(tasks)} task(s)")
+    return 0
+
+
+def _cmd_eval(args: argparse.Namespace) -> int:
+    from robolab_ms.analysis.tables import SUMMARY_MD, to_markdown, write_summary
+    from robolab_ms.eval.results import EPISODES_FILE
+    from robolab_ms.eval.runner import EvalConfig, run_evaluation
+    from robolab_ms.policies import make_policy
+    from robolab_ms.tasks.spec import INSTRUCTION_VARIANTS, load_task
+
+    if args.episodes < 1:
+        raise RoboLabError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.instruction not in INSTRUCTION_VARIANTS:
+        raise RoboLabError(f"--instruction must be one of {', '.join(INSTRUCTION_VARIANTS)}")
+    policy = make_policy(args.policy)
+    tasks = tuple(load_task(task).name for task in args.task)  # unknown names fail here, with suggestions
+    config = EvalConfig(tasks=tasks, episodes=args.episodes, instruction=args.instruction,
+                        first_seed=args.seed, max_steps=args.max_steps)  # fmt: skip
+    out = Path(args.out)
+    try:
+        results = run_evaluation(policy, config, out, show_progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished episodes are kept in {out / EPISODES_FILE}; "
+              "run the same command again to resume", file=sys.stderr)  # fmt: skip
+        return 130
+    table = write_summary(results, out)
+    print(to_markdown(table))
+    print(f"episodes: {out / EPISODES_FILE}\nsummary:  {out / SUMMARY_MD} (and summary.csv)")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="robolab",
+        description="RoboLab benchmark on ManiSkill3: list tasks and evaluate policies.",
+        epilog="Environments are also usable directly: gym.make('RoboLab-<Task>-v1') after importing mani_skill.envs.",
+    )
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    listing = commands.add_parser("list", help="list the tasks with their attributes and difficulty")
+    listing.set_defaults(run=_cmd_list)
+
+    evaluate = commands.add_parser(
+        "eval",
+        help="evaluate a policy on tasks and write results",
+        description="Run a policy for N episodes (seeds first_seed .. first_seed+N-1) on each task. Each finished "
+        "episode is appended to OUT/episodes.jsonl at once; rerunning the same command skips finished episodes. "
+        "At the end OUT/summary.csv and OUT/summary.md hold success rate (95%% interval), score and Score(fail).",
+    )
+    evaluate.add_argument("--policy", default="random", help="policy name (default: random)")
+    evaluate.add_argument("--task", nargs="+", required=True, metavar="TASK",
+                          help="task name(s) as in `robolab list`, e.g. BananaInBowl")  # fmt: skip
+    evaluate.add_argument("--episodes", type=int, default=10, help="episodes per task (default: 10)")
+    evaluate.add_argument("--out", default="results/latest", help="results folder (default: results/latest)")
+    evaluate.add_argument("--instruction", default="default", help="instruction variant: default, vague or specific")
+    evaluate.add_argument("--seed", type=int, default=0, help="first episode seed (default: 0)")
+    evaluate.add_argument("--max-steps", type=int, default=None,
+                          help="cut episodes after this many control steps (default: the task's length)")  # fmt: skip
+    evaluate.add_argument("--quiet", action="store_true", help="no progress bar")
+    evaluate.set_defaults(run=_cmd_eval)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.run(args)
+    except RoboLabError as error:
+        print(f"robolab: error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,47 @@
+"""Errors a user can act on. The CLI prints them as one message, without a traceback."""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+from pathlib import Path
+
+
+class RoboLabError(Exception):
+    """A problem with input or set-up that the user can fix; the message says how."""
+
+
+class SpecError(RoboLabError):
+    """A scene, task or catalog file is invalid: names the file, the field and what would be valid."""
+
+    def __init__(self, file: str | Path, field: str, problem: str, fix: str = "") -> None:
+        self.file = str(file)
+        self.field = field
+        self.problem = problem
+        self.fix = fix
+        message = f"{self.file}: field '{field}': {problem}"
+        if fix:
+            message += f". {fix}"
+        super().__init__(message)
+
+
+class UnknownNameError(RoboLabError):
+    """A name (task, object, predicate, policy ...) that does not exist; suggests close matches."""
+
+    def __init__(self, kind: str, name: str, known: Iterable[str]) -> None:
+        known = sorted(known)
+        self.kind, self.name, self.known = kind, name, known
+        super().__init__(f"unknown {kind} '{name}'. {did_you_mean(name, known)}")
+
+
+def did_you_mean(name: str, known: Iterable[str]) -> str:
+    """A short hint naming the closest valid names, or listing a few valid ones."""
+    known = sorted(known)
+    close = difflib.get_close_matches(name, known, n=3, cutoff=0.5)
+    if not close:
+        lowered = {k.lower(): k for k in known}
+        close = [lowered[k] for k in difflib.get_close_matches(name.lower(), list(lowered), n=3, cutoff=0.5)]
+    if close:
+        return "Did you mean " + " or ".join(f"'{c}'" for c in close) + "?"
+    shown = ", ".join(known[:8]) + (", ..." if len(known) > 8 else "")
+    return f"Valid names: {shown}" if known else "There are none defined."

@@ -1,0 +1,1 @@
+"""Task engine: task specs, predicates, subtask progress and scores."""

@@ -1,0 +1,1 @@
+"""Task specs (one YAML file per task); each becomes the environment id RoboLab-<Task>-v1."""

@@ -1,0 +1,46 @@
+"""Registration: the design card's demo command, the `robolab_ms:` form, and a start-up that stays cheap."""
+
+import os
+import subprocess
+import sys
+
+import gymnasium as gym
+import pytest
+
+DEMO = [sys.executable, "-m", "mani_skill.examples.demo_random_action", "--quiet", "--render-backend", "cpu"]
+
+
+def run_python(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=600,
+                          env={**os.environ, **(env or {})})  # fmt: skip
+
+
+@pytest.mark.parametrize("env_id", ["RoboLab-BananaInBowl-v1", "robolab_ms:RoboLab-BananaInBowl-v1"])
+def test_demo_random_action_runs_the_task(env_id):
+    result = subprocess.run([*DEMO, "-e", env_id], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-2000:]
+
+
+def test_gym_make_with_module_prefix_in_a_fresh_process():
+    code = "import gymnasium as gym; env = gym.make('robolab_ms:RoboLab-BananaInBowl-v1'); print(env.unwrapped.instruction)"
+    result = run_python("-c", code)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "Put the banana in the bowl." in result.stdout
+
+
+def test_startup_hook_imports_nothing_heavy():
+    code = "import sys; print(sorted(m for m in ('robolab_ms', 'torch', 'sapien', 'mani_skill', 'yaml') if m in sys.modules))"
+    result = run_python("-c", code)
+    assert result.returncode == 0 and result.stdout.strip() == "[]", result.stdout + result.stderr
+    assert "_robolab_ms_hook" in run_python("-c", "import sys; print(list(sys.modules))").stdout
+
+
+def test_hook_can_be_switched_off():
+    code = "import mani_skill.envs, gymnasium as gym; print('RoboLab-BananaInBowl-v1' in gym.registry)"
+    assert run_python("-c", code).stdout.strip() == "True"
+    assert run_python("-c", code, env={"ROBOLAB_MS_AUTOREGISTER": "0"}).stdout.strip() == "False"
+
+
+def test_unknown_env_id_suggests_the_close_one():
+    with pytest.raises(gym.error.Error, match="BananaInBowl"):
+        gym.make("RoboLab-BananaInBowel-v1")
