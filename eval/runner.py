@@ -109,6 +109,7 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
         success_step=success_step,
         wall_seconds=round(time.perf_counter() - start, 3),
         error=error,
+        events=list(info["events"][0]) if "events" in info else [],
     )
 
 

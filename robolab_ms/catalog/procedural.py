@@ -152,7 +152,18 @@ def bowl(top_radius: float, bottom_radius: float, height: float, wall: float = 0
     return parts
 
 
+def open_box(size: list[float], wall: float = 0.008) -> list[Part]:
+    """An open-topped box of outer size (x, y, z) with thin walls (bins, crates, trays)."""
+    x, y, z = size
+    parts = [Part("box", (x / 2, y / 2, wall / 2), (0.0, 0.0, wall / 2))]
+    for sign in (-1, 1):
+        parts.append(Part("box", (wall / 2, y / 2, z / 2), (sign * (x - wall) / 2, 0.0, z / 2)))
+        parts.append(Part("box", (x / 2 - wall, wall / 2, z / 2), (0.0, sign * (y - wall) / 2, z / 2)))
+    return parts
+
+
 GENERATORS: dict[str, Callable[..., list[Part]]] = {
+    "open_box": open_box,
     "box": box,
     "cylinder": cylinder,
     "sphere": sphere,

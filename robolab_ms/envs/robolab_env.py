@@ -28,7 +28,8 @@ from robolab_ms.errors import RoboLabError, UnknownNameError
 from robolab_ms.render_check import NO_DEVICE_HELP
 from robolab_ms.scene.builder import RoboLabSceneBuilder
 from robolab_ms.tasks.context import EvalContext
-from robolab_ms.tasks.predicates import combine, per_object
+from robolab_ms.tasks.events import EventMonitor
+from robolab_ms.tasks.predicates import TABLE, combine, per_object
 from robolab_ms.tasks.progress import ProgressTracker
 from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS, load_task
 
@@ -130,16 +131,23 @@ class RoboLabEnv(BaseEnv):
         super()._load_agent(options, sapien.Pose(p=[0.0, 0.0, 0.0]))
 
     def _load_scene(self, options: dict) -> None:
-        self.scene_builder = RoboLabSceneBuilder(self, self.task_spec.scene, self.catalog)
+        spec = self.task_spec
+        self.scene_builder = RoboLabSceneBuilder(self, spec.scene, self.catalog)
         self.scene_builder.build()
         self.objects = self.scene_builder.objects
-        entries = {p.name: self.catalog[p.asset] for p in self.task_spec.scene.objects}
+        entries = {p.name: self.catalog[p.asset] for p in spec.scene.objects}
+        entries[TABLE] = self.scene_builder.table_entry
         fingers = [self.agent.finger1_link, self.agent.finger2_link]
-        self.eval_context = EvalContext(
-            self.scene, self.scene_builder.scene_objects, entries, fingers, self.device
-        )
-        self._progress_conditions, stages = self.task_spec.progress_layout()
+        actors = {**self.objects, TABLE: self.scene_builder.table}
+        self.eval_context = EvalContext(self.scene, actors, entries, fingers, self.device)
+        self._progress_conditions, stages, stage_targets = spec.progress_layout()
         self.progress_tracker = ProgressTracker(stages, self.num_envs, self.device)
+        contact = list(spec.contact_objects)
+        # row s: which contact objects are targets while stage s runs (the last row, after the end: none)
+        self._stage_targets = torch.tensor(
+            [[name in targets for name in contact] for targets in stage_targets] + [[False] * len(contact)],
+            dtype=torch.bool, device=self.device)  # fmt: skip
+        self.events = EventMonitor(self.eval_context, contact, spec.event_thresholds)
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict) -> None:
         with torch.device(self.device):
@@ -149,6 +157,13 @@ class RoboLabEnv(BaseEnv):
             self.agent.reset(qpos)
             self.agent.robot.set_pose(Pose.create_from_pq(torch.zeros((count, 3))))
             self.progress_tracker.reset(env_idx)
+            self.eval_context.reset(env_idx)
+            self.events.reset(env_idx)
+
+    def gripper_closed_fraction(self) -> torch.Tensor:
+        """How far the gripper is closed, 0 open to 1 closed: (num_envs,)."""
+        fingers = self.agent.robot.get_qpos()[:, -2:].mean(dim=1)
+        return (1.0 - fingers / PANDA_FINGER_OPEN).clamp(0.0, 1.0)
 
     # ------------------------------------------------------------------------------------------------ stepping
     def _step_action(self, action: Any) -> Any:
@@ -159,32 +174,36 @@ class RoboLabEnv(BaseEnv):
         return super()._step_action(action)
 
     def evaluate(self) -> dict[str, torch.Tensor]:
-        """Success (any success condition holds), score in [0, 1] and subtask progress, for every environment."""
-        self.eval_context.refresh()
+        """Success (any success condition holds), score in [0, 1], subtask progress and stage, and which events
+        fired this step (`event_<type>`), for every environment."""
+        context = self.eval_context
+        context.refresh(self.elapsed_steps)
         success = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
         for condition in self.task_spec.success:
-            success |= combine(per_object(self.eval_context, condition), condition.logical, condition.k)
-        holds = torch.cat([per_object(self.eval_context, c) for c in self._progress_conditions], dim=1)
+            success |= combine(per_object(context, condition), condition.logical, condition.k)
+        holds = torch.cat([per_object(context, c) for c in self._progress_conditions], dim=1)
         score = self.progress_tracker.update(holds)
+        stage = self.progress_tracker.stage_index
+        targets = self._stage_targets[stage.clamp(max=len(self._stage_targets) - 1)]
+        fired = self.events.update(targets, self.gripper_closed_fraction())
         return dict(
             success=success,
             fail=torch.zeros_like(success),
             score=torch.where(success, 1.0, score),
             progress=torch.where(success, 1.0, self.progress_tracker.progress()),
+            stage=stage.clone(),
+            **{f"event_{kind}": flag for kind, flag in fired.items()},
         )
 
     def get_info(self) -> dict[str, Any]:
         info = super().get_info()
         info["task"] = self.task_spec.name
         info["instruction"] = self.instruction
+        info["events"] = self.events.log  # per environment: every event so far, {step, type, object}
         return info
 
     def _get_obs_extra(self, info: dict) -> dict[str, torch.Tensor]:
-        fingers = self.agent.robot.get_qpos()[:, -2:].mean(dim=1, keepdim=True)
-        extra = dict(
-            tcp_pose=self.agent.tcp.pose.raw_pose,
-            gripper_position=(1.0 - fingers / PANDA_FINGER_OPEN).clamp(0.0, 1.0),
-        )
+        extra = dict(tcp_pose=self.agent.tcp.pose.raw_pose, gripper_position=self.gripper_closed_fraction()[:, None])
         if self.obs_mode_struct.use_state:
             for name, actor in self.objects.items():
                 extra[f"{name}_pose"] = actor.pose.raw_pose

@@ -11,7 +11,8 @@ from mani_skill.utils.scene_builder import SceneBuilder
 from mani_skill.utils.structs import Actor
 from mani_skill.utils.structs.pose import Pose
 
-from robolab_ms.catalog import Catalog
+from robolab_ms.catalog import Catalog, CatalogObject
+from robolab_ms.catalog.procedural import Part
 from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, yaw_quat
 
 
@@ -33,6 +34,7 @@ class RoboLabSceneBuilder(SceneBuilder):
             base_color=list(self.spec.table_rgba), roughness=0.8))
         table.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], -TABLE_HEIGHT / 2])
         self.table = table.build_kinematic(name="table")
+        self.table_entry = table_entry(self.spec)
 
         pedestal = self.scene.create_actor_builder()
         pedestal_half = [0.15, 0.15, TABLE_HEIGHT / 2]
@@ -68,3 +70,13 @@ class RoboLabSceneBuilder(SceneBuilder):
             actor.set_linear_velocity(torch.zeros((count, 3)))
             actor.set_angular_velocity(torch.zeros((count, 3)))
 
+
+
+def table_entry(spec: SceneSpec) -> CatalogObject:
+    """The table as a catalog-style entry (its frame is the box centre), so predicates can treat it like an object."""
+    length, width = spec.table_size
+    return CatalogObject(
+        name="table", object_class="furniture", description="the work table", colors=(), rgba=spec.table_rgba,
+        mass=1.0, static_friction=1.0, dynamic_friction=1.0, restitution=0.0, source={"kind": "scene"},
+        license="n/a", parts=(Part("box", (length / 2, width / 2, TABLE_HEIGHT / 2), (0.0, 0.0, 0.0)),),
+    )  # fmt: skip

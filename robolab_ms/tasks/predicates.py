@@ -1,18 +1,25 @@
-"""The predicate registry: batched tests of the scene state used by success conditions and subtasks.
+"""The predicate registry: batched tests of the scene state for success conditions, subtasks and events.
 
-A predicate takes an EvalContext, the names of the objects it is about and (for most) a reference object, and
-returns a bool tensor of shape (num_envs, num_objects): whether it holds for each object in each environment.
-Combining objects (`all` / `any` / `choose K`) and the flags `require_contact_with` and `require_gripper_detached`
-are applied in one place, `evaluate_condition`, so every predicate gets them for free.
+A predicate takes an EvalContext, the names of the objects it is about, its reference objects (container, surface,
+reference ...) and parameters, and returns a bool tensor (num_envs, num_objects): whether it holds for each object
+in each environment. Group predicates (stacked, placed_in_container_in_order) give one answer per environment,
+repeated for every object. Combining objects (`all` / `any` / `choose K`) and the flags `require_contact_with`
+(the object touches the first reference object) and `require_gripper_detached` (no finger touches it) are applied
+in one place, `per_object` / `combine`, so every predicate gets them.
+
+Frames: world = robot frame, x forward, y left, z up. "In front of" means closer to the robot (-x).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import torch
+
+from robolab_ms.tasks.context import GRIPPER
 
 if TYPE_CHECKING:
     from robolab_ms.tasks.context import EvalContext
@@ -20,70 +27,247 @@ if TYPE_CHECKING:
 
 PredicateFn = Callable[..., torch.Tensor]
 CONTACT_FORCE_N = 0.1  # two bodies touch when the force between them exceeds this (RoboLab's threshold)
+TABLE = "table"
 
 
 @dataclass(frozen=True)
 class PredicateInfo:
-    """A registered predicate: its function, the name of its reference-object field (or None) and its parameters."""
+    """A registered predicate: function, reference-object fields (name -> default, None = required), parameters."""
 
     name: str
     function: PredicateFn
-    reference: str | None
+    references: dict[str, str | None] = field(default_factory=dict)
     params: dict[str, Any] = field(default_factory=dict)
+    group: bool = False
     doc: str = ""
+
+    @property
+    def contact_reference(self) -> str | None:
+        """The reference field that `require_contact_with` refers to (the first one)."""
+        return next(iter(self.references), None)
 
 
 PREDICATES: dict[str, PredicateInfo] = {}
 FLAGS = {"require_contact_with": False, "require_gripper_detached": False}
 
 
-def predicate(name: str, reference: str | None = None, **params: Any) -> Callable[[PredicateFn], PredicateFn]:
+def predicate(
+    name: str, references: dict[str, str | None] | None = None, group: bool = False, **params: Any
+) -> Callable[[PredicateFn], PredicateFn]:
     """Register a predicate under `name`; `params` are its tunable parameters with their defaults."""
 
     def register(function: PredicateFn) -> PredicateFn:
         if name in PREDICATES:
             raise ValueError(f"predicate '{name}' is registered twice")
-        PREDICATES[name] = PredicateInfo(name, function, reference, dict(params), (function.__doc__ or "").strip())
+        doc = (function.__doc__ or "").strip()
+        PREDICATES[name] = PredicateInfo(name, function, dict(references or {}), dict(params), group, doc)
         return function
 
     return register
 
 
-@predicate("in_container", reference="container")
-def in_container(ctx: EvalContext, objects: list[str], container: str) -> torch.Tensor:
-    """The object's centre lies inside the container's convex hull, the column above its rim included."""
-    planes = ctx.container_planes(container)  # (P, 4): n . x + d <= 0 inside, in the container frame
-    centres = torch.stack([ctx.centre_in_frame(name, container) for name in objects], dim=1)  # (E, O, 3)
-    distances = centres @ planes[:, :3].T + planes[:, 3]  # (E, O, P)
-    return (distances <= 1e-4).all(dim=-1)
+def _each(objects: list[str], test: Callable[[str], torch.Tensor]) -> torch.Tensor:
+    return torch.stack([test(name) for name in objects], dim=1)
+
+
+def _broadcast(holds: torch.Tensor, objects: list[str]) -> torch.Tensor:
+    return holds[:, None].expand(-1, len(objects))
+
+
+# ------------------------------------------------------------------------------------------------ contact, grasp
+@predicate("in_contact", references={"reference": None})
+def in_contact(ctx: EvalContext, objects: list[str], reference: str) -> torch.Tensor:
+    """The object and the reference push on each other with more than 0.1 N."""
+    return _each(objects, lambda name: ctx.contact_force(name, reference) > CONTACT_FORCE_N)
 
 
 @predicate("grasped")
 def grasped(ctx: EvalContext, objects: list[str]) -> torch.Tensor:
-    """The object touches a gripper finger."""
-    return torch.stack([ctx.touches_gripper(name) for name in objects], dim=1)
+    """A gripper finger touches the object (more than 0.1 N)."""
+    return _each(objects, lambda name: ctx.contact_force(name, GRIPPER) > CONTACT_FORCE_N)
 
 
 @predicate("released")
 def released(ctx: EvalContext, objects: list[str]) -> torch.Tensor:
-    """The object touches no gripper finger."""
+    """No gripper finger touches the object."""
     return ~grasped(ctx, objects)
 
 
-@predicate("in_contact", reference="reference")
-def in_contact(ctx: EvalContext, objects: list[str], reference: str) -> torch.Tensor:
-    """The object and the reference push on each other with more than 0.1 N."""
-    return torch.stack([ctx.contact_force(name, reference) > CONTACT_FORCE_N for name in objects], dim=1)
+@predicate("picked_up", references={"surface": TABLE}, distance=0.05)
+def picked_up(ctx: EvalContext, objects: list[str], surface: str, distance: float) -> torch.Tensor:
+    """Grasped, with every bounding-box corner at least `distance` (m) above the top of `surface`."""
+    top = ctx.top_z(surface)
+    lifted = _each(objects, lambda name: ctx.corners(name)[:, :, 2].min(dim=1).values >= top + distance)
+    return lifted & grasped(ctx, objects)
 
 
-def per_object(ctx: EvalContext, condition: Condition, objects: list[str] | None = None) -> torch.Tensor:
-    """The condition's predicate with its flags applied, per object: bool (num_envs, num_objects)."""
+# ------------------------------------------------------------------------------------------------ containers
+def _inside_hull(ctx: EvalContext, objects: list[str], container: str, tolerance: float, open_top: bool):
+    planes = ctx.container_planes(container, open_top)  # (P, 4), container frame
+    centres = torch.stack([ctx.centre(name) for name in objects], dim=1)  # (E, O, 3)
+    local = ctx.in_frame(centres, container)
+    return (local @ planes[:, :3].T + planes[:, 3] <= tolerance).all(dim=-1)
+
+
+@predicate("in_container", references={"container": None}, tolerance=0.0)
+def in_container(ctx: EvalContext, objects: list[str], container: str, tolerance: float) -> torch.Tensor:
+    """The object's centre is inside the container's convex hull or the column above its rim (any orientation);
+    `tolerance` (m) widens the hull."""
+    return _inside_hull(ctx, objects, container, tolerance, open_top=True)
+
+
+@predicate("enclosed", references={"container": None}, tolerance=0.0)
+def enclosed(ctx: EvalContext, objects: list[str], container: str, tolerance: float) -> torch.Tensor:
+    """The object's centre is inside the container's closed convex hull (below the rim, not above it)."""
+    return _inside_hull(ctx, objects, container, tolerance, open_top=False)
+
+
+@predicate("outside_of", references={"container": None}, tolerance=0.0)
+def outside_of(ctx: EvalContext, objects: list[str], container: str, tolerance: float) -> torch.Tensor:
+    """The object is not in the container (nor in the column above it)."""
+    return ~_inside_hull(ctx, objects, container, tolerance, open_top=True)
+
+
+@predicate("outside_of_and_on_surface", references={"container": None, "surface": TABLE}, tolerance=0.0)
+def outside_of_and_on_surface(
+    ctx: EvalContext, objects: list[str], container: str, surface: str, tolerance: float
+) -> torch.Tensor:
+    """Out of the container and resting on `surface` (in contact with it)."""
+    return outside_of(ctx, objects, container, tolerance) & in_contact(ctx, objects, surface)
+
+
+@predicate("placed_in_container_in_order", references={"container": None}, group=True, tolerance=0.0)
+def placed_in_container_in_order(ctx: EvalContext, objects: list[str], container: str, tolerance: float) -> torch.Tensor:
+    """Every object has been placed (in the container, released) and the first placements came in list order."""
+    placed = _inside_hull(ctx, objects, container, tolerance, open_top=True) & released(ctx, objects)
+    first = ctx.memory(("placed_order", container, tuple(objects)),
+                       lambda: torch.zeros(ctx.num_envs, len(objects), dtype=torch.long, device=ctx.device))  # fmt: skip
+    step = ctx.elapsed_steps[:, None].expand_as(first) + 1
+    first.copy_(torch.where((first == 0) & placed, step, first))  # latch each object's first placement
+    in_order = (first[:, 1:] >= first[:, :-1]).all(dim=1) if len(objects) > 1 else torch.ones_like(first[:, 0], dtype=torch.bool)
+    return _broadcast((first > 0).all(dim=1) & in_order & placed.all(dim=1), objects)
+
+
+@predicate("groups_in_containers", groups={})
+def groups_in_containers(ctx: EvalContext, objects: list[str], groups: dict[str, list[str]]) -> torch.Tensor:
+    """Each object is in the container its group names (`groups`: container -> objects)."""
+    home = {name: container for container, members in groups.items() for name in members}
+    return _each(objects, lambda name: _inside_hull(ctx, [name], home[name], 0.0, open_top=True)[:, 0])
+
+
+# ------------------------------------------------------------------------------------------------ surfaces, poses
+@predicate("on_top", references={"reference": None}, margin=0.01, cone_deg=45.0)
+def on_top(ctx: EvalContext, objects: list[str], reference: str, margin: float, cone_deg: float) -> torch.Tensor:
+    """The reference pushes the object up (force >= 0.1 N within `cone_deg` of +z) and the object's centre is over
+    the reference's footprint (widened by `margin` m)."""
+    low, high = ctx.footprint(reference)
+    cosine = math.cos(math.radians(cone_deg))
+
+    def test(name: str) -> torch.Tensor:
+        force = ctx.force_on(name, reference)
+        size = torch.linalg.norm(force, dim=-1)
+        upward = (size >= CONTACT_FORCE_N) & (force[:, 2] >= cosine * size)
+        xy = ctx.centre(name)[:, :2]
+        over = ((xy >= low - margin) & (xy <= high + margin)).all(dim=-1)
+        return upward & over
+
+    return _each(objects, test)
+
+
+@predicate("upright", tolerance=0.1)
+def upright(ctx: EvalContext, objects: list[str], tolerance: float) -> torch.Tensor:
+    """The object's up axis is within `tolerance` (rad) of the world's."""
+    return _each(objects, lambda name: ctx.up_axis(name)[:, 2] >= math.cos(tolerance))
+
+
+@predicate("stationary", max_speed=0.01)
+def stationary(ctx: EvalContext, objects: list[str], max_speed: float) -> torch.Tensor:
+    """The object moves slower than `max_speed` (m/s)."""
+    return _each(objects, lambda name: ctx.linear_speed(name) < max_speed)
+
+
+@predicate("stacked", group=True, order="none")
+def stacked(ctx: EvalContext, objects: list[str], order: str) -> torch.Tensor:
+    """The objects form one stack: each consecutive pair touches, the upper one higher. `order`: none (any order),
+    bottom_to_top (the list starts at the bottom) or top_to_bottom."""
+    if order not in ("none", "bottom_to_top", "top_to_bottom"):
+        raise ValueError(f"stacked: order must be none, bottom_to_top or top_to_bottom, got {order!r}")
+    heights = torch.stack([ctx.centre(name)[:, 2] for name in objects], dim=1)  # (E, O)
+    touching = torch.stack([torch.stack([ctx.contact_force(a, b) > CONTACT_FORCE_N if a != b
+                                         else torch.zeros(ctx.num_envs, dtype=torch.bool, device=ctx.device)
+                                         for b in objects], dim=1) for a in objects], dim=1)  # (E, O, O)  # fmt: skip
+    if order == "none":
+        sequence = heights.argsort(dim=1)  # bottom first, per environment
+    else:
+        indices = torch.arange(len(objects), device=ctx.device)
+        sequence = (indices if order == "bottom_to_top" else indices.flip(0)).expand(ctx.num_envs, -1)
+    lower, upper = sequence[:, :-1], sequence[:, 1:]
+    rows = torch.arange(ctx.num_envs, device=ctx.device)[:, None]
+    holds = (touching[rows, lower, upper] & (heights.gather(1, upper) > heights.gather(1, lower))).all(dim=1)
+    return _broadcast(holds, objects)
+
+
+# ------------------------------------------------------------------------------------------------ spatial relations
+def _direction(axis: tuple[float, float]):
+    def test(ctx: EvalContext, objects: list[str], reference: str, cone_deg: float, max_dz: float) -> torch.Tensor:
+        cosine = math.cos(math.radians(cone_deg))
+        towards = torch.tensor(axis, device=ctx.device)
+
+        def one(name: str) -> torch.Tensor:
+            offset = ctx.centre(name) - ctx.centre(reference)
+            planar = torch.linalg.norm(offset[:, :2], dim=-1)
+            aligned = (offset[:, :2] @ towards) >= cosine * planar
+            return aligned & (planar > 1e-6) & (offset[:, 2].abs() <= max_dz)
+
+        return _each(objects, one)
+
+    return test
+
+
+for _name, _axis, _meaning in [
+    ("left_of", (0.0, 1.0), "left of (+y)"),
+    ("right_of", (0.0, -1.0), "right of (-y)"),
+    ("in_front_of", (-1.0, 0.0), "in front of (closer to the robot, -x)"),
+    ("behind", (1.0, 0.0), "behind (farther from the robot, +x)"),
+]:
+    _function = _direction(_axis)
+    _function.__doc__ = (f"The object is {_meaning} the reference, seen from the robot: the horizontal offset lies "
+                         "within `cone_deg` of that direction and the heights differ by at most `max_dz` (m).")  # fmt: skip
+    predicate(_name, references={"reference": None}, cone_deg=45.0, max_dz=0.1)(_function)
+
+
+@predicate("next_to", references={"reference": None}, distance=0.05)
+def next_to(ctx: EvalContext, objects: list[str], reference: str, distance: float) -> torch.Tensor:
+    """The horizontal gap between the bounding boxes of object and reference is at most `distance` (m)."""
+    ref_low, ref_high = ctx.footprint(reference)
+
+    def one(name: str) -> torch.Tensor:
+        low, high = ctx.footprint(name)
+        gap = torch.clamp(torch.maximum(low - ref_high, ref_low - high), min=0.0)
+        return torch.linalg.norm(gap, dim=-1) <= distance
+
+    return _each(objects, one)
+
+
+@predicate("on_center", references={"reference": None}, tolerance=0.03)
+def on_center(ctx: EvalContext, objects: list[str], reference: str, tolerance: float) -> torch.Tensor:
+    """The object's centre is within `tolerance` (m) of the reference's centre along x and along y."""
+    return _each(objects, lambda name: ((ctx.centre(name) - ctx.centre(reference))[:, :2].abs() <= tolerance).all(-1))
+
+
+# ------------------------------------------------------------------------------------------------ conditions
+def per_object(ctx: EvalContext, condition: Condition) -> torch.Tensor:
+    """The condition's predicate with its flags applied, per object: bool (num_envs, num_objects). Cached per step."""
+    return ctx.cached(("condition", id(condition)), lambda: _per_object(ctx, condition))
+
+
+def _per_object(ctx: EvalContext, condition: Condition) -> torch.Tensor:
     info = PREDICATES[condition.predicate]
-    objects = list(condition.objects) if objects is None else objects
-    args = {info.reference: condition.reference} if info.reference else {}
-    holds = info.function(ctx, objects, **args, **condition.params)
-    if condition.require_contact_with and condition.reference is not None:
-        holds = holds & in_contact(ctx, objects, condition.reference)
+    objects = list(condition.objects)
+    holds = info.function(ctx, objects, **condition.references, **condition.params)
+    contact_with = condition.references.get(info.contact_reference) if info.contact_reference else None
+    if condition.require_contact_with and contact_with is not None:
+        holds = holds & in_contact(ctx, objects, contact_with)
     if condition.require_gripper_detached:
         holds = holds & released(ctx, objects)
     return holds

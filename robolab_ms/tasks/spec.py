@@ -1,21 +1,23 @@
 """Task specs: one YAML file per task in task_specs/, read and checked here.
 
-A task is a scene, three instruction variants, one or more success conditions (any one suffices) and its
-attributes. Subtasks are derived from the first success condition: for each of its objects, "grasped" (weight 0)
-then the condition itself (weight 1), combined by the condition's logical (all / any / choose K).
+A task is a scene, three instruction variants, one or more success conditions (any one suffices), its attributes,
+and optionally subtasks (stages of weighted steps), the objects whose contacts matter for events, and event
+thresholds. Without `subtasks`, they are derived from the first success condition: for each of its objects,
+"grasped" (weight 0) then the condition itself (weight 1), combined by the condition's logical (all / any / choose K).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 from robolab_ms.content import Fields, check_name, content_dir, load_yaml
 from robolab_ms.errors import UnknownNameError, did_you_mean
-from robolab_ms.scene import SceneSpec, load_scene, scene_names
-from robolab_ms.tasks.predicates import FLAGS, PREDICATES
+from robolab_ms.scene import SceneSpec, load_scene, read_scene, scene_names
+from robolab_ms.tasks.events import EVENT_THRESHOLDS
+from robolab_ms.tasks.predicates import FLAGS, PREDICATES, TABLE
 from robolab_ms.tasks.progress import Group, Stage
 
 CONTROL_HZ = 15
@@ -33,22 +35,35 @@ SKILL_WEIGHT = {
 LOGICALS = ("all", "any", "choose")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Condition:
-    """One predicate applied to objects, with the multi-object logic and flags."""
+    """One predicate applied to objects, with its reference objects, multi-object logic, flags and parameters."""
 
     predicate: str
     objects: tuple[str, ...]
-    reference: str | None
-    logical: str
-    k: int
-    require_contact_with: bool
-    require_gripper_detached: bool
-    params: dict[str, Any]
+    references: dict[str, str]
+    logical: str = "all"
+    k: int = 1
+    require_contact_with: bool = False
+    require_gripper_detached: bool = False
+    params: dict[str, Any] = field(default_factory=dict)
 
     @property
     def subtask_count(self) -> int:
+        if PREDICATES[self.predicate].group:
+            return len(self.objects) - 1 if self.predicate == "stacked" else len(self.objects)
         return {"all": len(self.objects), "any": 1, "choose": self.k}[self.logical]
+
+
+@dataclass(frozen=True)
+class SubtaskStage:
+    """A stage: one group per object, each group running the same ordered, weighted steps on its own object."""
+
+    objects: tuple[str, ...]
+    steps: tuple[Condition, ...]  # each over all of `objects`; group i uses column i
+    weights: tuple[float, ...]
+    logical: str = "all"
+    k: int = 1
 
 
 @dataclass(frozen=True)
@@ -62,6 +77,9 @@ class TaskSpec:
     attributes: tuple[str, ...]
     instructions: dict[str, str]
     success: tuple[Condition, ...]
+    subtasks: tuple[SubtaskStage, ...]
+    contact_objects: tuple[str, ...]
+    event_thresholds: dict[str, float]
 
     @property
     def env_id(self) -> str:
@@ -73,7 +91,8 @@ class TaskSpec:
 
     @property
     def num_subtasks(self) -> int:
-        return self.success[0].subtask_count
+        """Subtasks summed over stages: a stage counts its groups (`all`), 1 (`any`) or K (`choose`)."""
+        return sum({"all": len(s.objects), "any": 1, "choose": s.k}[s.logical] for s in self.subtasks)
 
     @property
     def difficulty_score(self) -> int:
@@ -89,53 +108,78 @@ class TaskSpec:
     def axes(self) -> tuple[str, ...]:
         return tuple(sorted({AXIS_OF_ATTRIBUTE[a] for a in self.attributes} - {"instruction"}))
 
-    def target_objects(self) -> list[str]:
-        """Objects named by any success condition, in order of first mention."""
-        names: list[str] = []
-        for condition in self.success:
-            names += [name for name in condition.objects if name not in names]
-        return names
-
-    def progress_layout(self) -> tuple[list[Condition], list[Stage]]:
-        """The per-object conditions to evaluate each step, and the stages that consume them (by index)."""
-        first = self.success[0]
+    def progress_layout(self) -> tuple[list[Condition], list[Stage], list[tuple[str, ...]]]:
+        """Conditions to evaluate each step (their per-object columns, concatenated in order), the stages that read
+        those columns, and each stage's target objects."""
         conditions: list[Condition] = []
-        groups = []
-        for name in first.objects:
-            grasp = Condition("grasped", (name,), None, "all", 1, False, False, {})
-            placed = Condition(first.predicate, (name,), first.reference, "all", 1,
-                               first.require_contact_with, first.require_gripper_detached, first.params)
-            groups.append(Group((len(conditions), len(conditions) + 1), (0.0, 1.0)))
-            conditions += [grasp, placed]
-        return conditions, [Stage(tuple(groups), first.logical, first.k)]
+        stages, targets = [], []
+        column = 0
+        for stage in self.subtasks:
+            offsets = []
+            for step in stage.steps:
+                offsets.append(column)
+                conditions.append(step)
+                column += len(stage.objects)
+            groups = tuple(Group(tuple(offset + i for offset in offsets), stage.weights)
+                           for i in range(len(stage.objects)))  # fmt: skip
+            stages.append(Stage(groups, stage.logical, stage.k))
+            targets.append(stage.objects)
+        return conditions, stages, targets
 
 
-def _read_condition(fields: Fields, scene: SceneSpec) -> Condition:
+def default_subtasks(condition: Condition) -> tuple[SubtaskStage, ...]:
+    """One stage from a success condition: per object, grasped (weight 0), then the condition (weight 1)."""
+    if PREDICATES[condition.predicate].group:
+        logical, k = "all", 1
+    else:
+        logical, k = condition.logical, condition.k
+    grasp = Condition("grasped", condition.objects, {})
+    return (SubtaskStage(condition.objects, (grasp, condition), (0.0, 1.0), logical, k),)
+
+
+def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (), objects=None) -> Condition:
+    """A condition; `objects` given (subtask steps) means the field must be absent and these are used."""
     name = fields.get("predicate", str)
     if name not in PREDICATES:
         raise fields.error("predicate", f"'{name}' is not a known predicate", did_you_mean(name, PREDICATES))
     info = PREDICATES[name]
-    allowed = ["predicate", "objects", "logical", "k", *FLAGS, *info.params]
-    if info.reference:
-        allowed.append(info.reference)
+    allowed = ["predicate", "logical", "k", *FLAGS, *info.references, *info.params, *extra]
+    if objects is None:
+        allowed.append("objects")
     fields.only(allowed)
-    objects = fields.get("objects", list)
-    known = scene.object_names()
-    for index, obj in enumerate(objects):
-        check_name(str(obj), known, f"object of scene '{scene.name}'",
-                   lambda problem, fix: fields.error(f"objects[{index}]", problem, fix))
+    known = [*scene.object_names(), TABLE]
+    where = f"object of scene '{scene.name}' (or 'table')"
+    params = {}
+    for key, default in info.params.items():
+        if isinstance(default, dict):  # a mapping of container -> objects
+            params[key] = _read_groups(fields, key, known, where)
+        else:
+            params[key] = fields.get(key, type(default), default)
+    if objects is None:
+        if "groups" in params and "objects" not in fields.data:
+            objects = [member for members in params["groups"].values() for member in members]
+        else:
+            objects = fields.get("objects", list)
+        for index, obj in enumerate(objects):
+            check_name(str(obj), known, where, lambda problem, fix: fields.error(f"objects[{index}]", problem, fix))
     if not objects:
         raise fields.error("objects", "is empty", "Name at least one object of the scene")
-    reference = fields.name_in(info.reference, known, f"object of scene '{scene.name}'") if info.reference else None
+    references = {}
+    for key, default in info.references.items():
+        if key in fields.data or default is None:
+            references[key] = fields.name_in(key, known, where)
+        else:
+            references[key] = default
     logical = fields.choice("logical", LOGICALS, "all")
     k = fields.get("k", int, 1)
     if logical == "choose" and not 1 <= k <= len(objects):
         raise fields.error("k", f"must be between 1 and the number of objects ({len(objects)}), got {k}")
-    params = {key: fields.get(key, type(default), default) for key, default in info.params.items()}
+    if "order" in params and params["order"] not in ("none", "bottom_to_top", "top_to_bottom"):
+        raise fields.error("order", f"'{params['order']}' is not valid", "Use none, bottom_to_top or top_to_bottom")
     return Condition(
         predicate=name,
         objects=tuple(str(o) for o in objects),
-        reference=reference,
+        references=references,
         logical=logical,
         k=k,
         require_contact_with=fields.get("require_contact_with", bool, False),
@@ -144,15 +188,57 @@ def _read_condition(fields: Fields, scene: SceneSpec) -> Condition:
     )
 
 
+def _read_groups(fields: Fields, key: str, known: list[str], where: str) -> dict[str, list[str]]:
+    groups = fields.get(key, dict)
+    for container, members in groups.items():
+        check_name(str(container), known, where, lambda problem, fix: fields.error(key, problem, fix))
+        if not isinstance(members, list) or not members:
+            raise fields.error(f"{key}.{container}", "must be a non-empty list of objects")
+        for member in members:
+            check_name(str(member), known, where, lambda problem, fix: fields.error(f"{key}.{container}", problem, fix))
+    return {str(c): [str(m) for m in members] for c, members in groups.items()}
+
+
+def _read_stage(fields: Fields, scene: SceneSpec) -> SubtaskStage:
+    fields.only(["objects", "logical", "k", "steps"])
+    known = scene.object_names()
+    objects = fields.get("objects", list)
+    for index, obj in enumerate(objects):
+        check_name(str(obj), known, f"object of scene '{scene.name}'",
+                   lambda problem, fix: fields.error(f"objects[{index}]", problem, fix))
+    logical = fields.choice("logical", LOGICALS, "all")
+    k = fields.get("k", int, 1)
+    if logical == "choose" and not 1 <= k <= len(objects):
+        raise fields.error("k", f"must be between 1 and the number of objects ({len(objects)}), got {k}")
+    steps, weights = [], []
+    for index, entry in enumerate(fields.get("steps", list)):
+        step_fields = Fields(entry, fields.file, fields.where(f"steps[{index}]"))
+        steps.append(_read_condition(step_fields, scene, extra=("weight",), objects=list(objects)))
+        weight = step_fields.get("weight", float, 1.0)
+        if weight < 0:
+            raise step_fields.error("weight", f"must not be negative, got {weight}")
+        weights.append(weight)
+    if not steps:
+        raise fields.error("steps", "is empty", "Give at least one step")
+    return SubtaskStage(tuple(str(o) for o in objects), tuple(steps), tuple(weights), logical, k)
+
+
 def read_task(file: Path) -> TaskSpec:
     """Read and check a task spec file."""
     fields = Fields(load_yaml(file), file)
-    fields.only(["name", "scene", "episode_seconds", "attributes", "instructions", "success"])
+    fields.only(["name", "scene", "episode_seconds", "attributes", "instructions", "success", "subtasks",
+                 "contact_objects", "events"])
     name = fields.get("name", str)
     if name != file.stem:
         raise fields.error("name", f"'{name}' differs from the file name '{file.stem}'", "Make them the same")
-    scene_name = fields.name_in("scene", scene_names(), "scene")
-    scene = load_scene(scene_name)
+    scene_field = fields.get("scene", str)
+    if scene_field.endswith(".yaml"):  # a scene file next to the task file (for authoring and tests)
+        scene_path = (file.parent / scene_field).resolve()
+        if not scene_path.exists():
+            raise fields.error("scene", f"file '{scene_path}' does not exist")
+        scene = read_scene(scene_path)
+    else:
+        scene = load_scene(fields.name_in("scene", scene_names(), "scene"))
     attributes = fields.get("attributes", list, [])
     for index, attribute in enumerate(attributes):
         check_name(str(attribute), AXIS_OF_ATTRIBUTE, "attribute",
@@ -167,7 +253,18 @@ def read_task(file: Path) -> TaskSpec:
     seconds = fields.get("episode_seconds", float)
     if seconds <= 0:
         raise fields.error("episode_seconds", f"must be positive, got {seconds}")
-    return TaskSpec(name, scene, file, seconds, tuple(str(a) for a in attributes), texts, conditions)
+    stages = fields.get("subtasks", list, None)
+    subtasks = (tuple(_read_stage(Fields(entry, file, f"subtasks[{i}]"), scene) for i, entry in enumerate(stages))
+                if stages else default_subtasks(conditions[0]))  # fmt: skip
+    contact = fields.get("contact_objects", list, scene.object_names())
+    for index, obj in enumerate(contact):
+        check_name(str(obj), scene.object_names(), f"object of scene '{scene.name}'",
+                   lambda problem, fix: fields.error(f"contact_objects[{index}]", problem, fix))
+    thresholds = fields.sub("events", {})
+    thresholds.only(EVENT_THRESHOLDS)
+    event_thresholds = {key: thresholds.get(key, float, default) for key, default in EVENT_THRESHOLDS.items()}
+    return TaskSpec(name, scene, file, seconds, tuple(str(a) for a in attributes), texts, conditions, subtasks,
+                    tuple(str(o) for o in contact), event_thresholds)
 
 
 def task_names() -> list[str]:
@@ -176,7 +273,9 @@ def task_names() -> list[str]:
 
 @lru_cache(maxsize=None)
 def load_task(name: str) -> TaskSpec:
-    """A shipped task by name (`BananaInBowl`) or environment id (`RoboLab-BananaInBowl-v1`)."""
+    """A shipped task by name (`BananaInBowl`) or environment id (`RoboLab-BananaInBowl-v1`), or a task file."""
+    if name.endswith(".yaml"):
+        return read_task(Path(name))
     if name.startswith("RoboLab-") and name.endswith("-v1"):
         name = name[len("RoboLab-"):-len("-v1")]
     path = content_dir("tasks") / f"{name}.yaml"
