@@ -15,6 +15,7 @@ def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
 def test_list_shows_tasks_with_difficulty():
     result = run("list")
     assert result.returncode == 0, result.stderr
+    assert result.stderr == ""
     assert "BananaInBowl" in result.stdout and "RoboLab-BananaInBowl-v1" in result.stdout
     assert "simple (1)" in result.stdout
 

@@ -44,3 +44,10 @@ def test_hook_can_be_switched_off():
 def test_unknown_env_id_suggests_the_close_one():
     with pytest.raises(gym.error.Error, match="BananaInBowl"):
         gym.make("RoboLab-BananaInBowel-v1")
+
+
+def test_reading_specs_imports_no_simulator():
+    code = ("import sys, robolab_ms.tasks.spec, robolab_ms.tasks.events;"
+            "print(sorted(m for m in ('mani_skill', 'sapien') if m in sys.modules))")  # fmt: skip
+    result = run_python("-c", code)
+    assert result.returncode == 0 and result.stdout.strip() == "[]" and result.stderr == "", result.stderr

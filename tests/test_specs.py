@@ -97,3 +97,74 @@ def test_no_rendering_device_is_explained(tmp_path):
                             capture_output=True, text=True, env=broken, timeout=300)  # fmt: skip
     assert result.returncode == 2, result.stderr[-2000:]
     assert "mesa-vulkan-drivers" in result.stderr and "Traceback" not in result.stderr
+
+
+STAGED = """
+name: T
+scene: banana_bowl
+episode_seconds: 30
+attributes: [conjunction, stacking]
+instructions: {default: a, vague: b, specific: c}
+success:
+  - {predicate: in_container, objects: [banana, apple], container: bowl}
+subtasks:
+  - objects: [banana]
+    steps:
+      - {predicate: grasped, weight: 0}
+      - {predicate: in_container, container: bowl, require_gripper_detached: true, weight: 1}
+  - objects: [apple, red_block]
+    logical: choose
+    k: 1
+    steps:
+      - {predicate: in_container, container: bowl}
+events: {tip_angle: 0.5}
+"""
+
+
+def test_subtask_stages_difficulty_and_event_thresholds(tmp_path):
+    spec = read_task(write(tmp_path, "T", STAGED))
+    assert [len(stage.steps) for stage in spec.subtasks] == [2, 1]
+    assert spec.num_subtasks == 2  # 1 object in stage 1, choose 1 in stage 2
+    assert spec.difficulty_score == 4 and spec.difficulty == "moderate"  # + stacking weight 2
+    assert spec.event_thresholds["tip_angle"] == 0.5
+    conditions, stages, targets = spec.progress_layout()
+    assert [c.predicate for c in conditions] == ["grasped", "in_container", "in_container"]
+    assert [g.conditions for g in stages[0].groups] == [(0, 1)]
+    assert [g.conditions for g in stages[1].groups] == [(2,), (3,)]
+    assert targets == [("banana",), ("apple", "red_block")]
+
+
+def test_subtask_step_with_unknown_field(tmp_path):
+    path = write(tmp_path, "T", STAGED.replace("weight: 0}", "wieght: 0}"))
+    with pytest.raises(SpecError, match=r"subtasks\[0\].steps\[0\].wieght.*Did you mean 'weight'"):
+        read_task(path)
+
+
+def test_unknown_event_threshold(tmp_path):
+    path = write(tmp_path, "T", STAGED.replace("tip_angle", "tilt_angle"))
+    with pytest.raises(SpecError, match=r"events.tilt_angle.*Did you mean 'tip_angle'"):
+        read_task(path)
+
+
+def test_every_registered_task_is_not_a_success_right_after_reset():
+    import gymnasium as gym
+
+    from robolab_ms.envs import ENV_IDS
+
+    for env_id in ENV_IDS:
+        env = gym.make(env_id, obs_mode="state_dict", render_backend="cpu")
+        for seed in (0, 1):
+            _, info = env.reset(seed=seed)
+            assert not info["success"].item(), f"{env_id} seed {seed}"
+            _, _, _, _, info = env.step(None)
+            assert not info["success"].item(), f"{env_id} seed {seed} after one step"
+        env.close()
+
+
+def test_the_task_writing_page_documents_every_predicate_and_event():
+    from robolab_ms.tasks.events import EVENT_THRESHOLDS, EVENT_TYPES
+    from robolab_ms.tasks.predicates import PREDICATES
+
+    page = (Path(__file__).parent.parent / "docs" / "writing_tasks.md").read_text()
+    for name in [*PREDICATES, *EVENT_TYPES, *EVENT_THRESHOLDS]:
+        assert f"`{name}`" in page, name

@@ -52,12 +52,22 @@ class EvalContext:
         for name, actor in actors.items():
             for entity in actor._objs:
                 self._entity_names[entity] = name
+        # pairs whose forces have been asked for; the contact pass sums impulses only for these and finger pairs
+        self._wanted_pairs: set[tuple[str, str]] = set()
         self._fingers = [f"{GRIPPER}:{index}" for index in range(len(finger_links))]
         for finger, link in zip(self._fingers, finger_links):
             for body in link._objs:
                 self._entity_names[body.entity] = finger
         self._step_cache: dict[Any, Any] = {}
         self._memory: dict[Any, torch.Tensor] = {}
+        # all tracked bodies are read as one merged view: one pose query and one rotation conversion per step
+        self.names = list(actors)
+        self.index = {name: i for i, name in enumerate(self.names)}
+        from mani_skill.utils.structs import Actor  # not at module level: spec checking must not import ManiSkill
+
+        self._view = Actor.merge([actors[name] for name in self.names], name="robolab_ms_eval_view")
+        bounds = np.stack([entries[name].bounds for name in self.names])  # (N, 2, 3)
+        self._local_centres = torch.as_tensor(bounds.mean(axis=1), dtype=torch.float32, device=device)
         self.elapsed_steps = torch.zeros(self.num_envs, dtype=torch.long, device=device)
 
     # ------------------------------------------------------------------------------------------------ caching
@@ -86,20 +96,31 @@ class EvalContext:
             value[env_idx] = 0
 
     # ------------------------------------------------------------------------------------------------ poses
+    def all_poses(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """Positions (E, N, 3) and rotation matrices (E, N, 3, 3) of every tracked body, in `self.names` order."""
+
+        def read():
+            raw = self._view.pose.raw_pose.reshape(len(self.names), self.num_envs, 7).transpose(0, 1)
+            return raw[..., :3], quaternion_to_matrix(raw[..., 3:])
+
+        return self.cached("poses", read)
+
+    def all_centres(self) -> torch.Tensor:
+        """World centres of every tracked body's bounding box: (E, N, 3)."""
+
+        def compute():
+            positions, rotations = self.all_poses()
+            return torch.einsum("enij,nj->eni", rotations, self._local_centres) + positions
+
+        return self.cached("centres", compute)
+
     def position(self, name: str) -> torch.Tensor:
         """World position of the object's frame origin: (E, 3)."""
-        return self._pose(name)[0]
+        return self.all_poses()[0][:, self.index[name]]
 
     def rotation(self, name: str) -> torch.Tensor:
         """World rotation matrix of the object: (E, 3, 3)."""
-        return self._pose(name)[1]
-
-    def _pose(self, name: str) -> tuple[torch.Tensor, torch.Tensor]:
-        def read():
-            pose = self.actors[name].pose
-            return pose.p, pose.to_transformation_matrix()[:, :3, :3]
-
-        return self.cached(("pose", name), read)
+        return self.all_poses()[1][:, self.index[name]]
 
     def up_axis(self, name: str) -> torch.Tensor:
         """The object's own z axis in the world: (E, 3)."""
@@ -107,7 +128,7 @@ class EvalContext:
 
     def centre(self, name: str) -> torch.Tensor:
         """World position of the centre of the object's bounding box: (E, 3)."""
-        return self.cached(("centre", name), lambda: self.to_world(name, self._local_centre(name))[:, 0])
+        return self.all_centres()[:, self.index[name]]
 
     def corners(self, name: str) -> torch.Tensor:
         """World positions of the 8 corners of the object's bounding box: (E, 8, 3)."""
@@ -134,9 +155,6 @@ class EvalContext:
         return self.cached(("speed", name), lambda: torch.linalg.norm(self.actors[name].linear_velocity, dim=-1))
 
     # ------------------------------------------------------------------------------------------------ geometry
-    def _local_centre(self, name: str) -> torch.Tensor:
-        return self._static(("centre", name), lambda: self.entries[name].bounds.mean(axis=0, keepdims=True))
-
     def _local_corners(self, name: str) -> torch.Tensor:
         low, high = self.entries[name].bounds
         return self._static(("corners", name), lambda: np.array(
@@ -159,11 +177,15 @@ class EvalContext:
             net = sum(self.force_on(finger, other) for finger in self._fingers)
             return net if a == GRIPPER else -net
         if self.scene.gpu_sim_enabled:
-            return self.cached(("gpu_force", a, b), lambda: self._gpu_force(a, b))
+            return self.cached(("gpu_force", a, b), lambda: self.scene.get_pairwise_contact_forces(
+                self._body(a), self._body(b)))  # fmt: skip
+        key = (a, b) if a <= b else (b, a)
+        if key not in self._wanted_pairs and not (a in self._fingers or b in self._fingers):
+            self._wanted_pairs.add(key)
+            self._step_cache.pop("cpu_forces", None)  # first time this pair is asked for: read it this step too
         forces = self.cached("cpu_forces", self._cpu_forces)
-        if a <= b:
-            return forces.get((a, b), self._zero3())
-        return -forces.get((b, a), self._zero3())
+        force = forces.get((a, b)) if a <= b else -forces.get((b, a), np.zeros(3))
+        return torch.as_tensor(np.zeros(3) if force is None else force, dtype=torch.float32, device=self.device)[None]
 
     def contact_force(self, a: str, b: str) -> torch.Tensor:
         """Magnitude of the contact force between `a` and `b`: (E,). With `gripper`, the fingers' forces add up
@@ -173,6 +195,23 @@ class EvalContext:
             return sum(torch.linalg.norm(self.force_on(finger, other), dim=-1) for finger in self._fingers)
         return torch.linalg.norm(self.force_on(a, b), dim=-1)
 
+    def gripper_forces(self, names: list[str]) -> torch.Tensor:
+        """Contact force magnitude between the fingers and each of `names`, summed over fingers: (E, len(names))."""
+        if self.scene.gpu_sim_enabled:
+            return torch.stack([self.contact_force(name, GRIPPER) for name in names], dim=1)
+
+        def compute():
+            column = {name: i for i, name in enumerate(names)}
+            values = np.zeros((1, len(names)))
+            for (a, b), force in self.cached("cpu_forces", self._cpu_forces).items():
+                if a in self._fingers and b in column:
+                    values[0, column[b]] += np.linalg.norm(force)
+                elif b in self._fingers and a in column:
+                    values[0, column[a]] += np.linalg.norm(force)
+            return torch.as_tensor(values, dtype=torch.float32, device=self.device)
+
+        return self.cached(("gripper_forces", tuple(names)), compute)
+
     def _zero3(self) -> torch.Tensor:
         return torch.zeros(self.num_envs, 3, device=self.device)
 
@@ -181,16 +220,20 @@ class EvalContext:
             return self.finger_links[self._fingers.index(name)]
         return self.actors[name]
 
-    def _gpu_force(self, a: str, b: str) -> torch.Tensor:
-        return self.scene.get_pairwise_contact_forces(self._body(a), self._body(b))
-
-    def _cpu_forces(self) -> dict[tuple[str, str], torch.Tensor]:
-        """Force per pair of named bodies (key sorted; value = force on the first), from one pass over contacts."""
+    def _cpu_forces(self) -> dict[tuple[str, str], np.ndarray]:
+        """Force per pair of named bodies (key sorted; value = force on the first), from one pass over contacts.
+        Only pairs with a finger and pairs asked for before are summed: the rest would cost time for nothing."""
         impulses: dict[tuple[str, str], np.ndarray] = {}
+        names, fingers, wanted = self._entity_names, self._fingers, self._wanted_pairs
         for contact in self.scene.px.get_contacts():
-            a = self._entity_names.get(contact.bodies[0].entity)
-            b = self._entity_names.get(contact.bodies[1].entity)
-            if a is None or b is None or a == b:
+            bodies = contact.bodies
+            a = names.get(bodies[0].entity)
+            if a is None:
+                continue
+            b = names.get(bodies[1].entity)
+            if b is None or a == b:
+                continue
+            if a not in fingers and b not in fingers and ((a, b) if a <= b else (b, a)) not in wanted:
                 continue
             total = np.zeros(3)
             for point in contact.points:
@@ -198,5 +241,14 @@ class EvalContext:
             key, sign = ((a, b), 1.0) if a <= b else ((b, a), -1.0)
             impulses[key] = impulses.get(key, 0.0) + sign * total
         timestep = self.scene.px.timestep
-        return {key: torch.as_tensor(value / timestep, dtype=torch.float32, device=self.device).reshape(1, 3)
-                for key, value in impulses.items()}  # fmt: skip
+        return {key: value / timestep for key, value in impulses.items()}
+
+
+def quaternion_to_matrix(quaternions: torch.Tensor) -> torch.Tensor:
+    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in (w, x, y, z) order."""
+    w, x, y, z = quaternions.unbind(-1)
+    return torch.stack([
+        1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+        2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+        2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y),
+    ], dim=-1).reshape(*quaternions.shape[:-1], 3, 3)  # fmt: skip

@@ -38,6 +38,7 @@ class EventMonitor:
         self.thresholds = {**EVENT_THRESHOLDS, **thresholds}
         self.num_envs, self.device = ctx.num_envs, ctx.device
         count = len(self.objects)
+        self.columns = torch.tensor([ctx.index[name] for name in self.objects], device=self.device)
         self.start_position = torch.zeros(self.num_envs, count, 3, device=self.device)
         self.start_up = torch.zeros(self.num_envs, count, 3, device=self.device)
         self.previous = {kind: torch.zeros(self.num_envs, count if kind != "gripper" else 1, dtype=torch.bool,
@@ -56,15 +57,15 @@ class EventMonitor:
             self.log[index] = []
 
     def _positions_and_ups(self) -> tuple[torch.Tensor, torch.Tensor]:
-        positions = torch.stack([self.ctx.centre(name) for name in self.objects], dim=1)
-        ups = torch.stack([self.ctx.up_axis(name) for name in self.objects], dim=1)
+        positions = self.ctx.all_centres()[:, self.columns]
+        ups = self.ctx.all_poses()[1][:, self.columns, :, 2]
         return positions, ups
 
     def update(self, targets: torch.Tensor, closed: torch.Tensor) -> dict[str, torch.Tensor]:
         """One control step. `targets`: (E, O) bool, the current stage's objects; `closed`: (E,) gripper closed
         fraction in [0, 1]. Returns, per event type, whether it fired in each environment (E,)."""
         ctx, limits = self.ctx, self.thresholds
-        touching = torch.stack([ctx.contact_force(name, GRIPPER) > CONTACT_FORCE_N for name in self.objects], dim=1)
+        touching = ctx.gripper_forces(self.objects) > CONTACT_FORCE_N
         positions, ups = self._positions_and_ups()
         moved = torch.linalg.norm(positions - self.start_position, dim=-1)
         turned = torch.arccos((ups * self.start_up).sum(-1).clamp(-1.0, 1.0))
