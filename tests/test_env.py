@@ -73,3 +73,10 @@ def test_banana_beside_the_bowl_is_not_success(banana_env):
     place(banana_env, "banana", bowl[0] - 0.16, bowl[1], 0.03)
     info = hold_still(banana_env, 10)
     assert not info["success"].item()
+
+
+def test_a_quiet_episode_records_no_events(banana_env):
+    for seed in (0, 1, 2):
+        banana_env.reset(seed=seed)
+        hold_still(banana_env, 15)
+        assert banana_env.unwrapped.events.log[0] == [], f"seed {seed}: {banana_env.unwrapped.events.log[0]}"

@@ -132,7 +132,7 @@ def arc_capsules(length: float, radius: float, bend_deg: float, segments: int = 
         r = radius * taper
         half_length = length / segments / 2
         rotation = axis_angle_quat((0, 0, 1), angle)
-        parts.append(Part("capsule", (r, half_length), (x, y, radius), rotation))
+        parts.append(Part("capsule", (r, half_length), (x, y, r), rotation))  # every segment rests on the table
     return parts
 
 
