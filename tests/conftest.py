@@ -12,3 +12,22 @@ def banana_env():
     env = gym.make("RoboLab-BananaInBowl-v1", obs_mode="rgb", render_backend="cpu")
     yield env
     env.close()
+
+
+@pytest.fixture(scope="session")
+def predicate_lab():
+    """The PredicateLab test task (tests/fixtures), state observations only."""
+    from helpers import LAB
+
+    from robolab_ms.envs import RoboLabEnv
+
+    env = RoboLabEnv(task=str(LAB), obs_mode="state_dict", render_backend="cpu")
+    yield env
+    env.close()
+
+
+@pytest.fixture()
+def lab(predicate_lab):
+    """The PredicateLab environment, freshly reset to seed 0."""
+    predicate_lab.reset(seed=0)
+    return predicate_lab

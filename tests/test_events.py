@@ -7,22 +7,14 @@ import pytest
 import torch
 
 from robolab_ms.tasks.events import EVENT_TYPES
-from test_predicates import LAB, RoboLabEnv, put
+from helpers import put
 
 TABLE_TOUCH_QPOS = [0.0, 0.9, 0.0, -1.6, 0.0, 2.5, 0.785]  # fingertips at the table top, between blocks
 TRIGGERED = set()
 
 
-@pytest.fixture(scope="module")
-def lab():
-    env = RoboLabEnv(task=str(LAB), obs_mode="state_dict", render_backend="cpu")
-    yield env
-    env.close()
-
-
 @pytest.fixture()
 def env(lab):
-    lab.reset(seed=0)
     return lab
 
 

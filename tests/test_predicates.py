@@ -1,43 +1,24 @@
 """Every predicate against real physics: a scene where it holds and one where it does not."""
 
 import math
-from pathlib import Path
 
-import numpy as np
 import pytest
 import torch
+from helpers import hold_arm_action, put
 
-from robolab_ms.envs import RoboLabEnv
 from robolab_ms.tasks.predicates import PREDICATES, combine, per_object
 from robolab_ms.tasks.spec import Condition
 
-LAB = Path(__file__).parent / "fixtures" / "PredicateLab.yaml"
 TESTED = set()
-
-
-@pytest.fixture(scope="module")
-def lab():
-    env = RoboLabEnv(task=str(LAB), obs_mode="state_dict", render_backend="cpu")
-    yield env
-    env.close()
 
 
 @pytest.fixture()
 def env(lab):
-    lab.reset(seed=0)
     return lab
 
 
-def put(env, name, xyz, quat=(1.0, 0.0, 0.0, 0.0)):
-    actor = env.objects[name]
-    pose = actor.pose
-    actor.set_pose(type(pose).create_from_pq(torch.tensor([xyz], dtype=torch.float32), torch.tensor([quat])))
-    actor.set_linear_velocity(torch.zeros(1, 3))
-    actor.set_angular_velocity(torch.zeros(1, 3))
-
-
 def settle(env, steps=12, gripper=0.0):
-    action = np.concatenate([env.agent.robot.get_qpos()[0, :7].numpy(), [gripper]]).astype(np.float32)
+    action = hold_arm_action(env, gripper)
     for _ in range(steps):
         env.step(action)
 

@@ -29,7 +29,7 @@ from robolab_ms.render_check import NO_DEVICE_HELP
 from robolab_ms.scene.builder import RoboLabSceneBuilder
 from robolab_ms.tasks.context import EvalContext
 from robolab_ms.tasks.events import EventMonitor
-from robolab_ms.tasks.predicates import TABLE, combine, per_object
+from robolab_ms.tasks.predicates import TABLE, evaluate_condition, per_object
 from robolab_ms.tasks.progress import ProgressTracker
 from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS, load_task
 
@@ -180,7 +180,7 @@ class RoboLabEnv(BaseEnv):
         context.refresh(self.elapsed_steps)
         success = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
         for condition in self.task_spec.success:
-            success |= combine(per_object(context, condition), condition.logical, condition.k)
+            success |= evaluate_condition(context, condition)
         holds = torch.cat([per_object(context, c) for c in self._progress_conditions], dim=1)
         score = self.progress_tracker.update(holds)
         stage = self.progress_tracker.stage_index

@@ -212,9 +212,6 @@ class EvalContext:
 
         return self.cached(("gripper_forces", tuple(names)), compute)
 
-    def _zero3(self) -> torch.Tensor:
-        return torch.zeros(self.num_envs, 3, device=self.device)
-
     def _body(self, name: str):
         if name in self._fingers:
             return self.finger_links[self._fingers.index(name)]

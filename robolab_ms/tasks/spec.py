@@ -48,12 +48,6 @@ class Condition:
     require_gripper_detached: bool = False
     params: dict[str, Any] = field(default_factory=dict)
 
-    @property
-    def subtask_count(self) -> int:
-        if PREDICATES[self.predicate].group:
-            return len(self.objects) - 1 if self.predicate == "stacked" else len(self.objects)
-        return {"all": len(self.objects), "any": 1, "choose": self.k}[self.logical]
-
 
 @dataclass(frozen=True)
 class SubtaskStage:
