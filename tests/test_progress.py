@@ -52,3 +52,12 @@ def test_stages_run_in_order_and_batch_independently():
     assert score.tolist() == [0.5, 1.0]
     tracker.reset(torch.tensor([1]))
     assert tracker.update(torch.tensor([[False, False], [False, False]])).tolist() == [0.5, 0.0]
+
+
+def test_groups_of_different_lengths_in_one_stage():
+    tracker = ProgressTracker([Stage((GRASP_PLACE, Group((2,), (1.0,))), "all")], num_envs=1)
+    assert step(tracker, [True, False, True]).item() == 0.5  # group 1 grasped (weight 0), group 2 done
+    assert tracker.stage_index.item() == 0
+    assert step(tracker, [False, True, False]).item() == 1.0  # group 2 stays done (latched)
+    assert tracker.stage_index.item() == 1
+

@@ -105,6 +105,10 @@ class EvalContext:
 
         return self.cached("poses", read)
 
+    def all_up_axes(self) -> torch.Tensor:
+        """Every tracked body's own z axis in the world: (E, N, 3)."""
+        return self.all_poses()[1][..., :, 2]
+
     def all_centres(self) -> torch.Tensor:
         """World centres of every tracked body's bounding box: (E, N, 3)."""
 
@@ -241,11 +245,31 @@ class EvalContext:
         return {key: value / timestep for key, value in impulses.items()}
 
 
+def _quaternion_products_to_matrix() -> torch.Tensor:
+    """C with R = (q q^T) . C for a unit quaternion q = (w, x, y, z): shape (16, 9)."""
+    w, x, y, z = range(4)
+    terms = {  # entry of R -> [(coefficient, a, b)] for products q_a q_b
+        (0, 0): [(1, w, w), (1, x, x), (-1, y, y), (-1, z, z)], (0, 1): [(2, x, y), (-2, w, z)],
+        (0, 2): [(2, x, z), (2, w, y)], (1, 0): [(2, x, y), (2, w, z)],
+        (1, 1): [(1, w, w), (-1, x, x), (1, y, y), (-1, z, z)], (1, 2): [(2, y, z), (-2, w, x)],
+        (2, 0): [(2, x, z), (-2, w, y)], (2, 1): [(2, y, z), (2, w, x)],
+        (2, 2): [(1, w, w), (-1, x, x), (-1, y, y), (1, z, z)],
+    }  # fmt: skip
+    table = torch.zeros(4, 4, 3, 3)
+    for (i, j), entries in terms.items():
+        for coefficient, a, b in entries:
+            if a == b:
+                table[a, b, i, j] += coefficient
+            else:  # q_a q_b appears twice in the outer product
+                table[a, b, i, j] += coefficient / 2
+                table[b, a, i, j] += coefficient / 2
+    return table.reshape(16, 9)
+
+
+_QUATERNION_TABLE = _quaternion_products_to_matrix()
+
+
 def quaternion_to_matrix(quaternions: torch.Tensor) -> torch.Tensor:
-    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in (w, x, y, z) order."""
-    w, x, y, z = quaternions.unbind(-1)
-    return torch.stack([
-        1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
-        2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-        2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y),
-    ], dim=-1).reshape(*quaternions.shape[:-1], 3, 3)  # fmt: skip
+    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in (w, x, y, z) order, in three tensor ops."""
+    outer = (quaternions[..., :, None] * quaternions[..., None, :]).reshape(*quaternions.shape[:-1], 16)
+    return (outer @ _QUATERNION_TABLE.to(quaternions.device)).reshape(*quaternions.shape[:-1], 3, 3)

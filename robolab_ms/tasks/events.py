@@ -9,6 +9,8 @@ non-target. Thresholds have RoboLab's defaults and can be changed per task (`eve
 from __future__ import annotations
 
 
+import math
+
 import torch
 
 from robolab_ms.tasks.context import GRIPPER, EvalContext
@@ -22,10 +24,12 @@ EVENT_THRESHOLDS: dict[str, float] = {
     "scene_half_size": 1.0,  # objects must stay within this half-size (m) of the scene centre
     "tip_angle": 0.3,  # an object whose up axis turned this far (rad) from its start tipped over
 }
-EVENT_TYPES = (
-    "wrong_object_grasped", "gripper_hit_table", "gripper_fully_closed", "object_bumped", "object_moved",
-    "object_out_of_scene", "target_dropped", "gripper_hit_object", "multiple_objects_grasped", "object_tipped_over",
+OBJECT_EVENTS = (
+    "wrong_object_grasped", "object_bumped", "object_moved", "object_out_of_scene", "target_dropped",
+    "gripper_hit_object", "object_tipped_over",
 )  # fmt: skip
+GRIPPER_EVENTS = ("gripper_hit_table", "gripper_fully_closed", "multiple_objects_grasped")
+EVENT_TYPES = OBJECT_EVENTS + GRIPPER_EVENTS
 SCENE_CENTRE = (0.55, 0.0, 0.5)
 
 
@@ -41,8 +45,9 @@ class EventMonitor:
         self.columns = torch.tensor([ctx.index[name] for name in self.objects], device=self.device)
         self.start_position = torch.zeros(self.num_envs, count, 3, device=self.device)
         self.start_up = torch.zeros(self.num_envs, count, 3, device=self.device)
-        self.previous = {kind: torch.zeros(self.num_envs, count if kind != "gripper" else 1, dtype=torch.bool,
-                                           device=self.device) for kind in (*EVENT_TYPES, "touching")}  # fmt: skip
+        self.was_touching = torch.zeros(self.num_envs, count, dtype=torch.bool, device=self.device)
+        self.previous_objects = torch.zeros(self.num_envs, len(OBJECT_EVENTS), count, dtype=torch.bool, device=self.device)
+        self.previous_gripper = torch.zeros(self.num_envs, len(GRIPPER_EVENTS), dtype=torch.bool, device=self.device)
         self.log: list[list[dict]] = [[] for _ in range(self.num_envs)]
         self.centre = torch.tensor(SCENE_CENTRE, device=self.device)
 
@@ -51,15 +56,13 @@ class EventMonitor:
         positions, ups = self._positions_and_ups()
         self.start_position[env_idx] = positions[env_idx]
         self.start_up[env_idx] = ups[env_idx]
-        for previous in self.previous.values():
+        for previous in (self.was_touching, self.previous_objects, self.previous_gripper):
             previous[env_idx] = False
         for index in env_idx.tolist():
             self.log[index] = []
 
     def _positions_and_ups(self) -> tuple[torch.Tensor, torch.Tensor]:
-        positions = self.ctx.all_centres()[:, self.columns]
-        ups = self.ctx.all_poses()[1][:, self.columns, :, 2]
-        return positions, ups
+        return self.ctx.all_centres()[:, self.columns], self.ctx.all_up_axes()[:, self.columns]
 
     def update(self, targets: torch.Tensor, closed: torch.Tensor) -> dict[str, torch.Tensor]:
         """One control step. `targets`: (E, O) bool, the current stage's objects; `closed`: (E,) gripper closed
@@ -68,35 +71,37 @@ class EventMonitor:
         touching = ctx.gripper_forces(self.objects) > CONTACT_FORCE_N
         positions, ups = self._positions_and_ups()
         moved = torch.linalg.norm(positions - self.start_position, dim=-1)
-        turned = torch.arccos((ups * self.start_up).sum(-1).clamp(-1.0, 1.0))
+        cos_turned = (ups * self.start_up).sum(-1)
         others = ~targets
-        conditions = {
-            "wrong_object_grasped": touching & others & (closed >= limits["wrong_grasp_closed"])[:, None],
-            "gripper_hit_table": (ctx.contact_force(GRIPPER, TABLE) > CONTACT_FORCE_N)[:, None],
-            "gripper_fully_closed": (closed >= limits["fully_closed"])[:, None],
-            "object_bumped": others & (moved >= limits["bump_distance"]) & (moved < limits["move_distance"]),
-            "object_moved": others & (moved >= limits["move_distance"]),
-            "object_out_of_scene": ((positions - self.centre).abs() > limits["scene_half_size"]).any(dim=-1),
-            "target_dropped": targets & self.previous["touching"] & ~touching,
-            "gripper_hit_object": touching & others,
-            "multiple_objects_grasped": (touching.sum(dim=1) >= 2)[:, None],
-            "object_tipped_over": turned > limits["tip_angle"],
-        }
-        self.previous["touching"] = touching
-        fired = {}
-        for kind, now in conditions.items():
-            rising = now & ~self.previous[kind]
-            self.previous[kind] = now
-            fired[kind] = rising.any(dim=1)
-            if fired[kind].any():
-                self._record(kind, rising)
+        touching_other = touching & others
+        object_now = torch.stack([  # in OBJECT_EVENTS order, (E, 7, O)
+            touching_other & (closed >= limits["wrong_grasp_closed"])[:, None],
+            others & (moved >= limits["bump_distance"]) & (moved < limits["move_distance"]),
+            others & (moved >= limits["move_distance"]),
+            ((positions - self.centre).abs() > limits["scene_half_size"]).any(dim=-1),
+            targets & self.was_touching & ~touching,
+            touching_other,
+            cos_turned < math.cos(limits["tip_angle"]),
+        ], dim=1)  # fmt: skip
+        gripper_now = torch.stack([  # in GRIPPER_EVENTS order, (E, 3)
+            ctx.contact_force(GRIPPER, TABLE) > CONTACT_FORCE_N,
+            closed >= limits["fully_closed"],
+            touching.sum(dim=1) >= 2,
+        ], dim=1)  # fmt: skip
+        object_rising = object_now & ~self.previous_objects
+        gripper_rising = gripper_now & ~self.previous_gripper
+        self.previous_objects, self.previous_gripper, self.was_touching = object_now, gripper_now, touching
+        object_fired, gripper_fired = object_rising.any(dim=-1), gripper_rising
+        if bool(object_fired.any() | gripper_fired.any()):
+            self._record(object_rising, gripper_rising)
+        fired = {kind: object_fired[:, i] for i, kind in enumerate(OBJECT_EVENTS)}
+        fired.update({kind: gripper_fired[:, i] for i, kind in enumerate(GRIPPER_EVENTS)})
         return fired
 
-    def _record(self, kind: str, rising: torch.Tensor) -> None:
+    def _record(self, object_rising: torch.Tensor, gripper_rising: torch.Tensor) -> None:
         steps = self.ctx.elapsed_steps.tolist()
-        for env, column in rising.nonzero().tolist():
-            subject = self.objects[column] if rising.shape[1] == len(self.objects) else (
-                TABLE if kind == "gripper_hit_table" else GRIPPER)  # fmt: skip
-            self.log[env].append({"step": int(steps[env]), "type": kind, "object": subject})
-
-
+        for env, kind, column in object_rising.nonzero().tolist():
+            self.log[env].append({"step": int(steps[env]), "type": OBJECT_EVENTS[kind], "object": self.objects[column]})
+        for env, kind in gripper_rising.nonzero().tolist():
+            subject = TABLE if GRIPPER_EVENTS[kind] == "gripper_hit_table" else GRIPPER
+            self.log[env].append({"step": int(steps[env]), "type": GRIPPER_EVENTS[kind], "object": subject})

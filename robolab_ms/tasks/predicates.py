@@ -84,7 +84,7 @@ def in_contact(ctx: EvalContext, objects: list[str], reference: str) -> torch.Te
 @predicate("grasped")
 def grasped(ctx: EvalContext, objects: list[str]) -> torch.Tensor:
     """A gripper finger touches the object (more than 0.1 N)."""
-    return _each(objects, lambda name: ctx.contact_force(name, GRIPPER) > CONTACT_FORCE_N)
+    return ctx.gripper_forces(objects) > CONTACT_FORCE_N
 
 
 @predicate("released")

@@ -35,6 +35,28 @@ class Stage:
     k: int = 1
 
 
+class _StageTables:
+    """A stage's groups as padded tensors, built once: column indices, validity, lengths, cumulative weights."""
+
+    def __init__(self, stage: Stage, device: torch.device) -> None:
+        width = max(len(group.conditions) for group in stage.groups)
+        self.index = torch.zeros(len(stage.groups), width, dtype=torch.long, device=device)
+        self.valid = torch.zeros(len(stage.groups), width, dtype=torch.bool, device=device)
+        self.cumulative = torch.ones(len(stage.groups), width + 1, device=device)
+        for g, group in enumerate(stage.groups):
+            count = len(group.conditions)
+            self.index[g, :count] = torch.tensor(group.conditions)
+            self.valid[g, :count] = True
+            weights = torch.tensor(group.weights, dtype=torch.float32)
+            if float(weights.sum()) == 0:
+                weights = torch.ones_like(weights)
+            self.cumulative[g, : count + 1] = torch.cat([torch.zeros(1), weights.cumsum(0)]) / weights.sum()
+        self.lengths = self.valid.sum(dim=1)
+        self.positions = torch.arange(1, width + 1, device=device)
+        self.width = width
+        self.logical, self.k = stage.logical, stage.k
+
+
 class ProgressTracker:
     """Tracks the stages of one task for `num_envs` environments."""
 
@@ -44,9 +66,11 @@ class ProgressTracker:
         self.stages = stages
         self.num_envs = num_envs
         self.device = torch.device(device)
+        self._tables = [_StageTables(stage, self.device) for stage in stages]
         self.stage_index = torch.zeros(num_envs, dtype=torch.long, device=self.device)
         # levels[s]: (num_envs, num_groups) how many conditions each group of stage s has completed
         self.levels = [torch.zeros(num_envs, len(stage.groups), dtype=torch.long, device=self.device) for stage in stages]
+        self._total_conditions = sum(len(group.conditions) for stage in stages for group in stage.groups)
 
     def reset(self, env_idx: torch.Tensor | None = None) -> None:
         env_idx = slice(None) if env_idx is None else env_idx
@@ -56,65 +80,50 @@ class ProgressTracker:
 
     def update(self, holds: torch.Tensor) -> torch.Tensor:
         """Advance with this step's condition truth (num_envs, num_conditions) bool; returns the score (num_envs,)."""
-        score = torch.zeros(self.num_envs, device=self.device)
-        for s, stage in enumerate(self.stages):
+        for s, table in enumerate(self._tables):
             active = self.stage_index == s
-            for g, group in enumerate(stage.groups):
-                levels = self.levels[s][:, g]
-                new_levels = _step_group(levels, holds[:, list(group.conditions)])
-                levels.copy_(torch.where(active, new_levels, levels))
-            done = self._stage_done(s)
+            levels = self.levels[s]
+            new_levels = _step_groups(levels, holds[:, table.index] & table.valid, table)
+            self.levels[s] = torch.where(active[:, None], new_levels, levels)
+            done = _combine(self.levels[s] >= table.lengths, table.logical, table.k)
             self.stage_index = torch.where(active & done, self.stage_index + 1, self.stage_index)
-        for s in range(len(self.stages)):
-            current = self.stage_index == s
-            score = torch.where(current, s + self._stage_score(s), score)
-        score = torch.where(self.stage_index >= len(self.stages), float(len(self.stages)), score)
-        return score / len(self.stages)
+        count = len(self._tables)
+        score = torch.full((self.num_envs,), float(count), device=self.device)
+        for s in range(count):
+            score = torch.where(self.stage_index == s, s + self._stage_score(s), score)
+        return score / count
 
     def progress(self) -> torch.Tensor:
         """Fraction of all conditions of all groups completed so far (num_envs,), a finer view than the score."""
         completed = sum(levels.sum(dim=1) for levels in self.levels)
-        total = sum(len(group.conditions) for stage in self.stages for group in stage.groups)
-        return completed.float() / total
-
-    def _group_scores(self, s: int) -> torch.Tensor:
-        columns = []
-        for g, group in enumerate(self.stages[s].groups):
-            weights = torch.tensor(group.weights, device=self.device)
-            if float(weights.sum()) == 0:
-                weights = torch.ones_like(weights)
-            cumulative = torch.cat([torch.zeros(1, device=self.device), weights.cumsum(0)]) / weights.sum()
-            columns.append(cumulative[self.levels[s][:, g]])
-        return torch.stack(columns, dim=1)
+        return completed.float() / self._total_conditions
 
     def _stage_score(self, s: int) -> torch.Tensor:
-        stage, scores = self.stages[s], self._group_scores(s)
-        if stage.logical == "all":
+        table = self._tables[s]
+        groups = torch.arange(len(table.lengths), device=self.device)
+        scores = table.cumulative[groups, self.levels[s]]  # (num_envs, num_groups)
+        if table.logical == "all":
             return scores.mean(dim=1)
-        if stage.logical == "any":
+        if table.logical == "any":
             return scores.max(dim=1).values
-        k = min(stage.k, scores.shape[1])
-        return scores.topk(k, dim=1).values.mean(dim=1)
-
-    def _stage_done(self, s: int) -> torch.Tensor:
-        stage = self.stages[s]
-        lengths = torch.tensor([len(group.conditions) for group in stage.groups], device=self.device)
-        complete = self.levels[s] >= lengths
-        if stage.logical == "all":
-            return complete.all(dim=1)
-        if stage.logical == "any":
-            return complete.any(dim=1)
-        return complete.sum(dim=1) >= stage.k
+        return scores.topk(min(table.k, scores.shape[1]), dim=1).values.mean(dim=1)
 
 
-def _step_group(levels: torch.Tensor, holds: torch.Tensor) -> torch.Tensor:
-    """One step of one group for all environments: jump ahead, fall back, or stay; a finished group is latched."""
-    num_conditions = holds.shape[1]
-    positions = torch.arange(1, num_conditions + 1, device=holds.device)
-    furthest = (holds * positions).max(dim=1).values  # 0 when nothing holds
-    completed = positions.unsqueeze(0) <= levels.unsqueeze(1)
-    broken = completed & ~holds
-    first_broken = torch.where(broken, positions - 1, num_conditions).min(dim=1).values
-    fallen = torch.minimum(levels, first_broken)
-    new_levels = torch.where(furthest > levels, furthest, fallen)
-    return torch.where(levels >= num_conditions, levels, new_levels)
+def _combine(complete: torch.Tensor, logical: str, k: int) -> torch.Tensor:
+    if logical == "all":
+        return complete.all(dim=1)
+    if logical == "any":
+        return complete.any(dim=1)
+    return complete.sum(dim=1) >= k
+
+
+def _step_groups(levels: torch.Tensor, holds: torch.Tensor, table: _StageTables) -> torch.Tensor:
+    """One step of every group of a stage, all environments at once: jump ahead to the furthest condition that
+    holds, else fall back to the earliest completed one that broke; finished groups stay finished.
+    levels: (E, G); holds: (E, G, C) with padding False."""
+    positions = table.positions
+    furthest = (holds * positions).amax(dim=-1)  # 0 when nothing holds
+    broken = (positions <= levels[..., None]) & ~holds
+    first_broken = torch.where(broken, positions - 1, table.width).amin(dim=-1)
+    stepped = torch.where(furthest > levels, furthest, torch.minimum(levels, first_broken))
+    return torch.where(levels >= table.lengths, levels, stepped)
