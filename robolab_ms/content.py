@@ -100,6 +100,14 @@ class Fields:
         value = self.get(name, str)
         return check_name(value, known, what, lambda problem, fix: self.error(name, problem, fix))
 
+    def names_in(self, name: str, known: Iterable[str], what: str, default: Any = REQUIRED) -> list[str]:
+        """A list of strings that must each name one of `known`; errors point at the entry (`name[i]`)."""
+        values = self.get(name, list, default)
+        known = list(known)
+        for index, value in enumerate(values):
+            check_name(str(value), known, what, lambda problem, fix: self.error(f"{name}[{index}]", problem, fix))
+        return [str(value) for value in values]
+
     def only(self, allowed: Iterable[str]) -> None:
         """Reject fields this schema does not know (typos would otherwise be ignored silently)."""
         allowed = list(allowed)

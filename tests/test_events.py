@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from robolab_ms.tasks.events import EVENT_TYPES
-from helpers import put
+from helpers import hold_arm_action, put
 
 TABLE_TOUCH_QPOS = [0.0, 0.9, 0.0, -1.6, 0.0, 2.5, 0.785]  # fingertips at the table top, between blocks
 TRIGGERED = set()
@@ -20,8 +20,10 @@ def env(lab):
 
 def run(env, steps=8, gripper=0.0, arm=None):
     """Step with the arm held (or sent to `arm`); returns the event types that fired."""
-    arm = env.agent.robot.get_qpos()[0, :7].numpy() if arm is None else np.asarray(arm)
-    action = np.concatenate([arm, [gripper]]).astype(np.float32)
+    if arm is None:
+        action = hold_arm_action(env, gripper)
+    else:
+        action = np.array([*arm, gripper], dtype=np.float32)
     fired = set()
     for _ in range(steps):
         _, _, _, _, info = env.step(action)

@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING, Any
 
 import torch
 
-from robolab_ms.tasks.context import GRIPPER
 
 if TYPE_CHECKING:
     from robolab_ms.tasks.context import EvalContext
@@ -28,6 +27,7 @@ if TYPE_CHECKING:
 PredicateFn = Callable[..., torch.Tensor]
 CONTACT_FORCE_N = 0.1  # two bodies touch when the force between them exceeds this (RoboLab's threshold)
 TABLE = "table"
+STACK_ORDERS = ("none", "bottom_to_top", "top_to_bottom")
 
 
 @dataclass(frozen=True)
@@ -190,8 +190,8 @@ def stationary(ctx: EvalContext, objects: list[str], max_speed: float) -> torch.
 def stacked(ctx: EvalContext, objects: list[str], order: str) -> torch.Tensor:
     """The objects form one stack: each consecutive pair touches, the upper one higher. `order`: none (any order),
     bottom_to_top (the list starts at the bottom) or top_to_bottom."""
-    if order not in ("none", "bottom_to_top", "top_to_bottom"):
-        raise ValueError(f"stacked: order must be none, bottom_to_top or top_to_bottom, got {order!r}")
+    if order not in STACK_ORDERS:
+        raise ValueError(f"stacked: order must be one of {', '.join(STACK_ORDERS)}, got {order!r}")
     heights = torch.stack([ctx.centre(name)[:, 2] for name in objects], dim=1)  # (E, O)
     touching = torch.stack([torch.stack([ctx.contact_force(a, b) > CONTACT_FORCE_N if a != b
                                          else torch.zeros(ctx.num_envs, dtype=torch.bool, device=ctx.device)

@@ -17,7 +17,7 @@ from robolab_ms.content import Fields, check_name, content_dir, load_yaml
 from robolab_ms.errors import UnknownNameError, did_you_mean
 from robolab_ms.scene import SceneSpec, load_scene, read_scene, scene_names
 from robolab_ms.tasks.events import EVENT_THRESHOLDS
-from robolab_ms.tasks.predicates import FLAGS, PREDICATES, TABLE
+from robolab_ms.tasks.predicates import FLAGS, PREDICATES, STACK_ORDERS, TABLE
 from robolab_ms.tasks.progress import Group, Stage
 
 CONTROL_HZ = 15
@@ -153,9 +153,7 @@ def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (
         if "groups" in params and "objects" not in fields.data:
             objects = [member for members in params["groups"].values() for member in members]
         else:
-            objects = fields.get("objects", list)
-        for index, obj in enumerate(objects):
-            check_name(str(obj), known, where, lambda problem, fix: fields.error(f"objects[{index}]", problem, fix))
+            objects = fields.names_in("objects", known, where)
     if not objects:
         raise fields.error("objects", "is empty", "Name at least one object of the scene")
     references = {}
@@ -164,12 +162,9 @@ def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (
             references[key] = fields.name_in(key, known, where)
         else:
             references[key] = default
-    logical = fields.choice("logical", LOGICALS, "all")
-    k = fields.get("k", int, 1)
-    if logical == "choose" and not 1 <= k <= len(objects):
-        raise fields.error("k", f"must be between 1 and the number of objects ({len(objects)}), got {k}")
-    if "order" in params and params["order"] not in ("none", "bottom_to_top", "top_to_bottom"):
-        raise fields.error("order", f"'{params['order']}' is not valid", "Use none, bottom_to_top or top_to_bottom")
+    logical, k = _read_logical(fields, len(objects))
+    if "order" in params and params["order"] not in STACK_ORDERS:
+        raise fields.error("order", f"'{params['order']}' is not valid", f"Use one of {', '.join(STACK_ORDERS)}")
     return Condition(
         predicate=name,
         objects=tuple(str(o) for o in objects),
@@ -182,28 +177,31 @@ def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (
     )
 
 
+def _read_logical(fields: Fields, count: int) -> tuple[str, int]:
+    """`logical` (all / any / choose) and `k`, checked against the number of objects."""
+    logical = fields.choice("logical", LOGICALS, "all")
+    k = fields.get("k", int, 1)
+    if logical == "choose" and not 1 <= k <= count:
+        raise fields.error("k", f"must be between 1 and the number of objects ({count}), got {k}")
+    return logical, k
+
+
 def _read_groups(fields: Fields, key: str, known: list[str], where: str) -> dict[str, list[str]]:
-    groups = fields.get(key, dict)
-    for container, members in groups.items():
-        check_name(str(container), known, where, lambda problem, fix: fields.error(key, problem, fix))
-        if not isinstance(members, list) or not members:
-            raise fields.error(f"{key}.{container}", "must be a non-empty list of objects")
-        for member in members:
-            check_name(str(member), known, where, lambda problem, fix: fields.error(f"{key}.{container}", problem, fix))
-    return {str(c): [str(m) for m in members] for c, members in groups.items()}
+    groups = fields.sub(key)
+    result = {}
+    for container in groups.data:
+        check_name(str(container), known, where, lambda problem, fix: groups.error(str(container), problem, fix))
+        members = groups.names_in(container, known, where)
+        if not members:
+            raise groups.error(str(container), "is empty", "List at least one object")
+        result[str(container)] = members
+    return result
 
 
 def _read_stage(fields: Fields, scene: SceneSpec) -> SubtaskStage:
     fields.only(["objects", "logical", "k", "steps"])
-    known = scene.object_names()
-    objects = fields.get("objects", list)
-    for index, obj in enumerate(objects):
-        check_name(str(obj), known, f"object of scene '{scene.name}'",
-                   lambda problem, fix: fields.error(f"objects[{index}]", problem, fix))
-    logical = fields.choice("logical", LOGICALS, "all")
-    k = fields.get("k", int, 1)
-    if logical == "choose" and not 1 <= k <= len(objects):
-        raise fields.error("k", f"must be between 1 and the number of objects ({len(objects)}), got {k}")
+    objects = fields.names_in("objects", scene.object_names(), f"object of scene '{scene.name}'")
+    logical, k = _read_logical(fields, len(objects))
     steps, weights = [], []
     for index, entry in enumerate(fields.get("steps", list)):
         step_fields = Fields(entry, fields.file, fields.where(f"steps[{index}]"))
@@ -214,7 +212,7 @@ def _read_stage(fields: Fields, scene: SceneSpec) -> SubtaskStage:
         weights.append(weight)
     if not steps:
         raise fields.error("steps", "is empty", "Give at least one step")
-    return SubtaskStage(tuple(str(o) for o in objects), tuple(steps), tuple(weights), logical, k)
+    return SubtaskStage(tuple(objects), tuple(steps), tuple(weights), logical, k)
 
 
 def read_task(file: Path) -> TaskSpec:
@@ -233,10 +231,7 @@ def read_task(file: Path) -> TaskSpec:
         scene = read_scene(scene_path)
     else:
         scene = load_scene(fields.name_in("scene", scene_names(), "scene"))
-    attributes = fields.get("attributes", list, [])
-    for index, attribute in enumerate(attributes):
-        check_name(str(attribute), AXIS_OF_ATTRIBUTE, "attribute",
-                   lambda problem, fix: fields.error(f"attributes[{index}]", problem, fix))
+    attributes = fields.names_in("attributes", AXIS_OF_ATTRIBUTE, "attribute", [])
     instructions = fields.sub("instructions")
     instructions.only(INSTRUCTION_VARIANTS)
     texts = {variant: instructions.get(variant, str) for variant in INSTRUCTION_VARIANTS}
@@ -250,15 +245,13 @@ def read_task(file: Path) -> TaskSpec:
     stages = fields.get("subtasks", list, None)
     subtasks = (tuple(_read_stage(Fields(entry, file, f"subtasks[{i}]"), scene) for i, entry in enumerate(stages))
                 if stages else default_subtasks(conditions[0]))  # fmt: skip
-    contact = fields.get("contact_objects", list, scene.object_names())
-    for index, obj in enumerate(contact):
-        check_name(str(obj), scene.object_names(), f"object of scene '{scene.name}'",
-                   lambda problem, fix: fields.error(f"contact_objects[{index}]", problem, fix))
+    contact = fields.names_in("contact_objects", scene.object_names(), f"object of scene '{scene.name}'",
+                              scene.object_names())  # fmt: skip
     thresholds = fields.sub("events", {})
     thresholds.only(EVENT_THRESHOLDS)
     event_thresholds = {key: thresholds.get(key, float, default) for key, default in EVENT_THRESHOLDS.items()}
-    return TaskSpec(name, scene, file, seconds, tuple(str(a) for a in attributes), texts, conditions, subtasks,
-                    tuple(str(o) for o in contact), event_thresholds)
+    return TaskSpec(name, scene, file, seconds, tuple(attributes), texts, conditions, subtasks,
+                    tuple(contact), event_thresholds)
 
 
 def task_names() -> list[str]:
