@@ -11,7 +11,7 @@ PKG_STAMP := $(VENV)/.robolab-installed
 SOURCES := $(shell find robolab_ms eval analysis assets scene_builders task_specs -type f \
              -not -path '*/__pycache__/*' 2>/dev/null) pyproject.toml setup.py
 
-.PHONY: demo test setup render-check clean
+.PHONY: demo test setup render-check assets clean
 
 demo: setup
 	$(BIN)/robolab eval --policy random --task BananaInBowl --episodes 2 --out results/demo
@@ -19,7 +19,7 @@ demo: setup
 test: setup
 	$(BIN)/pytest -q
 
-setup: $(PKG_STAMP) render-check
+setup: $(PKG_STAMP) render-check assets
 
 $(DEPS_STAMP): requirements.lock
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -36,6 +36,10 @@ $(PKG_STAMP): $(DEPS_STAMP) $(SOURCES)
 
 render-check: $(PKG_STAMP)
 	@scripts/setup_vulkan.sh $(BIN)/python
+
+# HDR backgrounds from npm (@pmndrs/assets), decoded into .venv; see scripts/setup_assets.sh.
+assets: $(PKG_STAMP)
+	@scripts/setup_assets.sh $(BIN)/python
 
 clean:
 	rm -rf $(VENV) build *.egg-info results

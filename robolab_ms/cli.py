@@ -3,6 +3,7 @@
 Examples:
   robolab list
   robolab eval --policy random --task BananaInBowl --episodes 2 --out results/demo
+  robolab catalog build | check [--objects NAME ...] | sheet | list
 """
 
 from __future__ import annotations
@@ -58,6 +59,81 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _catalog_file(args: argparse.Namespace) -> Path:
+    from robolab_ms.content import content_dir
+
+    return Path(args.catalog) if args.catalog else content_dir("assets") / "catalog.yaml"
+
+
+def _cmd_catalog_build(args: argparse.Namespace) -> int:
+    from robolab_ms.catalog.build import build_catalog
+
+    file = _catalog_file(args)
+    report = build_catalog(file, names=args.objects, force=args.force)
+    print(f"{len(report.built)} built, {len(report.skipped)} up to date; "
+          f"{file} {'rewritten' if report.catalog_changed else 'unchanged'}")  # fmt: skip
+    return 0
+
+
+def _cmd_catalog_check(args: argparse.Namespace) -> int:
+    from robolab_ms.catalog import read_catalog
+    from robolab_ms.catalog.check import check_catalog
+
+    catalog = read_catalog(_catalog_file(args))
+    for name in args.objects or []:
+        catalog[name]  # unknown names fail here, with suggestions
+    results = check_catalog(catalog, args.objects, render=not args.no_render)
+    failed = [result.name for result in results if not result.passed]
+    print(f"{len(results) - len(failed)}/{len(results)} objects passed" + (f"; failed: {', '.join(failed)}" if failed else ""))
+    return 1 if failed else 0
+
+
+def _cmd_catalog_sheet(args: argparse.Namespace) -> int:
+    from robolab_ms.catalog import read_catalog
+    from robolab_ms.catalog.check import contact_sheet
+
+    out = contact_sheet(read_catalog(_catalog_file(args)), Path(args.out), args.objects, tile=args.tile)
+    print(f"contact sheet: {out}")
+    return 0
+
+
+def _cmd_catalog_list(args: argparse.Namespace) -> int:
+    from robolab_ms.catalog import read_catalog
+
+    catalog = read_catalog(_catalog_file(args))
+    for name in catalog.names():
+        entry = catalog[name]
+        kind = entry.source["generator"] if entry.is_procedural else entry.source["package"]
+        size = " x ".join(f"{d * 100:.1f}" for d in (entry.recorded_dimensions or entry.dimensions))
+        print(f"{name:28s} {entry.object_class:12s} {size:>20s} cm  {entry.mass:6.3f} kg  {kind}")
+    print(f"\n{len(catalog)} object(s)")
+    return 0
+
+
+def _add_catalog_commands(commands) -> None:
+    catalog = commands.add_parser("catalog", help="build, check, list and picture the object catalog",
+                                  description="The object catalog (assets/catalog.yaml) and its derived files.")  # fmt: skip
+    actions = catalog.add_subparsers(dest="catalog_command", required=True, metavar="ACTION")
+    build = actions.add_parser("build", help="derive transforms, dimensions and collision hulls from the installed "
+                               "asset packages (idempotent; coacd runs only for changed objects)")  # fmt: skip
+    build.add_argument("--force", action="store_true", help="rebuild even objects that are up to date")
+    build.set_defaults(run=_cmd_catalog_build)
+    check = actions.add_parser("check", help="load every object in SAPIEN and check rest, size, density, "
+                               "rendering and (containers) holding a small object")  # fmt: skip
+    check.add_argument("--no-render", action="store_true", help="skip the rendering check")
+    check.set_defaults(run=_cmd_catalog_check)
+    sheet = actions.add_parser("sheet", help="render a labelled grid of the objects to a PNG")
+    sheet.add_argument("--out", default="docs/images/contact_sheet.png", help="output PNG")
+    sheet.add_argument("--tile", type=int, default=112, help="tile size in pixels (default 112)")
+    sheet.set_defaults(run=_cmd_catalog_sheet)
+    listing = actions.add_parser("list", help="list the objects with class, size, mass and source")
+    listing.set_defaults(run=_cmd_catalog_list)
+    for action in (build, check, sheet, listing):
+        action.add_argument("--catalog", help="catalog file (default: the shipped assets/catalog.yaml)")
+    for action in (build, check, sheet):
+        action.add_argument("--objects", nargs="+", metavar="NAME", help="only these objects (default: all)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="robolab",
@@ -87,6 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="cut episodes after this many control steps (default: the task's length)")  # fmt: skip
     evaluate.add_argument("--quiet", action="store_true", help="no progress bar")
     evaluate.set_defaults(run=_cmd_eval)
+    _add_catalog_commands(commands)
     return parser
 
 

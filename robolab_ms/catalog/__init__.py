@@ -5,6 +5,7 @@ The catalog is data (assets/catalog.yaml). This module reads and checks it, and 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 from pathlib import Path
@@ -12,9 +13,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robolab_ms.catalog.procedural import GENERATORS, Part, generate
+from robolab_ms.catalog.meshes import hull_volume, package_file, read_hulls
+from robolab_ms.catalog.procedural import (
+    GENERATORS,
+    Part,
+    Quat,
+    axis_angle_quat,
+    generate,
+    procedural_interior,
+    quat_multiply,
+    quat_to_matrix,
+)
 from robolab_ms.content import Fields, content_dir, load_yaml
-from robolab_ms.errors import SpecError, UnknownNameError
+from robolab_ms.errors import RoboLabError, SpecError, UnknownNameError
 
 if TYPE_CHECKING:
     import sapien
@@ -29,8 +40,35 @@ OBJECT_CLASSES = (
 
 
 @dataclass(frozen=True)
+class MeshTransform:
+    """What makes a packaged mesh metric, upright and based: v_object = R(rotation_deg) (scale * v) + translation.
+
+    `rotation_deg` is extrinsic x, then y, then z (degrees); `translation` puts the centre of the bottom at the
+    origin (written by `robolab catalog build`).
+    """
+
+    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    translation: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def quaternion(self) -> Quat:
+        """The rotation as (w, x, y, z)."""
+        rx, ry, rz = (math.radians(angle) for angle in self.rotation_deg)
+        q = axis_angle_quat((1, 0, 0), rx)
+        q = quat_multiply(axis_angle_quat((0, 1, 0), ry), q)
+        return quat_multiply(axis_angle_quat((0, 0, 1), rz), q)
+
+    def apply(self, vertices: np.ndarray, translate: bool = True) -> np.ndarray:
+        """Source-frame vertices (N, 3) into the object frame."""
+        moved = (np.asarray(vertices) * np.asarray(self.scale)) @ quat_to_matrix(self.quaternion).T
+        return moved + np.asarray(self.translation) if translate else moved
+
+
+@dataclass(frozen=True)
 class CatalogObject:
-    """One catalog entry."""
+    """One catalog entry. Procedural objects carry primitive `parts`; mesh objects a visual mesh from an installed
+    package (`source`), a `transform` and a hull file of convex collision pieces (`collision_file`)."""
 
     name: str
     object_class: str
@@ -45,11 +83,35 @@ class CatalogObject:
     license: str
     is_container: bool = False
     parts: tuple[Part, ...] = field(default=(), repr=False)
+    interior: tuple[float, float, float] | None = None
+    recorded_dimensions: tuple[float, float, float] | None = None
+    transform: MeshTransform | None = None
+    collision_method: str = "primitives"
+    collision_file: Path | None = None
+    palette: tuple[tuple[float, float, float, float], ...] = ()
+
+    @property
+    def is_procedural(self) -> bool:
+        return self.source.get("kind") == "procedural"
+
+    @cached_property
+    def hulls(self) -> tuple[np.ndarray, ...]:
+        """Convex collision pieces of a mesh object, object frame (empty for procedural objects)."""
+        if self.collision_file is None:
+            return ()
+        if not self.collision_file.is_file():
+            raise RoboLabError(
+                f"catalog object '{self.name}': its collision file {self.collision_file.name} is missing. "
+                "Run 'robolab catalog build' to make it"
+            )
+        return read_hulls(str(self.collision_file))
 
     @cached_property
     def points(self) -> np.ndarray:
         """Surface points of the collision geometry, object frame (N, 3)."""
-        return np.concatenate([part.surface_points() for part in self.parts])
+        if self.parts:
+            return np.concatenate([part.surface_points() for part in self.parts])
+        return np.concatenate(self.hulls)
 
     @cached_property
     def bounds(self) -> np.ndarray:
@@ -58,23 +120,62 @@ class CatalogObject:
 
     @property
     def dimensions(self) -> np.ndarray:
-        """Full extent along x, y, z (m)."""
+        """Full extent along x, y, z (m) of the collision geometry (from its sample points)."""
         return self.bounds[1] - self.bounds[0]
 
     @cached_property
-    def density(self) -> float:
-        """Density that gives the catalog mass over the parts' total volume (kg/m^3)."""
-        return self.mass / sum(part.volume() for part in self.parts)
+    def exact_bounds(self) -> np.ndarray:
+        """Exact axis-aligned bounds of the collision geometry, [[min x, y, z], [max x, y, z]]."""
+        if not self.parts:
+            return self.bounds
+        lows = [np.asarray(part.position) - part.half_extent() for part in self.parts]
+        highs = [np.asarray(part.position) + part.half_extent() for part in self.parts]
+        return np.stack([np.min(lows, axis=0), np.max(highs, axis=0)])
 
-    def build(self, scene: ManiSkillScene, name: str, initial_pose: sapien.Pose) -> Actor:
-        """Build this object as a dynamic actor called `name`."""
+    @cached_property
+    def volume(self) -> float:
+        """Volume of the collision geometry (m^3)."""
+        if self.parts:
+            return sum(part.volume() for part in self.parts)
+        return sum(hull_volume(hull) for hull in self.hulls)
+
+    @cached_property
+    def density(self) -> float:
+        """Density that gives the catalog mass over the collision geometry's volume (kg/m^3)."""
+        return self.mass / self.volume
+
+    def visual_files(self) -> list[Path]:
+        """The packaged visual mesh files of a mesh object (empty for procedural objects)."""
+        if self.is_procedural:
+            return []
+        return [package_file(self.source["package"], path) for path in self.source["paths"]]
+
+    def build(self, scene: ManiSkillScene | sapien.Scene, name: str, initial_pose: sapien.Pose) -> Actor:
+        """Build this object as a dynamic actor called `name` (in a ManiSkill scene, or a plain SAPIEN scene)."""
         import sapien
 
         builder = scene.create_actor_builder()
         material = sapien.pysapien.physx.PhysxMaterial(self.static_friction, self.dynamic_friction, self.restitution)
-        render_material = sapien.render.RenderMaterial(base_color=list(self.rgba), roughness=0.6)
+        if self.parts:
+            self._add_parts(builder, material)
+        else:
+            self._add_mesh(builder, material)
+        builder.initial_pose = initial_pose
+        return builder.build(name=name)
+
+    def _render_materials(self) -> list:
+        import sapien
+
+        colours = self.palette or (self.rgba,)
+        return [sapien.render.RenderMaterial(base_color=list(rgba), roughness=0.6) for rgba in colours]
+
+    def _add_parts(self, builder, material) -> None:
+        import sapien
+
+        render_materials = self._render_materials()
         for part in self.parts:
             pose = sapien.Pose(p=list(part.position), q=list(part.rotation))
+            render_material = render_materials[min(part.tint, len(render_materials) - 1)]
             common = dict(pose=pose, material=material, density=self.density)
             if part.shape == "box":
                 builder.add_box_collision(half_size=list(part.size), **common)
@@ -92,8 +193,18 @@ class CatalogObject:
                 builder.add_cylinder_visual(
                     pose=pose, radius=part.size[0], half_length=part.size[1], material=render_material
                 )
-        builder.initial_pose = initial_pose
-        return builder.build(name=name)
+
+    def _add_mesh(self, builder, material) -> None:
+        import sapien
+
+        transform = self.transform or MeshTransform()
+        pose = sapien.Pose(p=list(transform.translation), q=list(transform.quaternion))
+        render_material = None if self.source.get("textured") else self._render_materials()[0]
+        for path in self.visual_files():
+            builder.add_visual_from_file(str(path), pose=pose, scale=list(transform.scale), material=render_material)
+        builder.add_multiple_convex_collisions_from_file(
+            str(self.collision_file), material=material, density=self.density
+        )
 
 
 class Catalog:
@@ -122,12 +233,29 @@ COLOR_NAMES = {
     "yellow": (0.95, 0.8, 0.15), "white": (0.92, 0.92, 0.9), "red": (0.8, 0.1, 0.1), "green": (0.15, 0.6, 0.2),
     "blue": (0.15, 0.3, 0.8), "orange": (0.95, 0.5, 0.1), "grey": (0.5, 0.5, 0.5), "black": (0.08, 0.08, 0.08),
     "brown": (0.45, 0.3, 0.15), "purple": (0.5, 0.2, 0.6), "pink": (0.95, 0.55, 0.7), "silver": (0.75, 0.75, 0.78),
+    "tan": (0.82, 0.68, 0.47), "cream": (0.96, 0.92, 0.8), "dark_green": (0.1, 0.35, 0.12),
+    "light_green": (0.55, 0.8, 0.3), "light_blue": (0.55, 0.75, 0.95), "dark_red": (0.45, 0.05, 0.08),
+    "beige": (0.9, 0.85, 0.7), "gold": (0.85, 0.65, 0.15), "navy": (0.08, 0.12, 0.35),
 }  # fmt: skip
+
+COLLISION_METHODS = {
+    "primitives": "the procedural object's own boxes, spheres, capsules and cylinders (exact)",
+    "packaged_pieces": "convex pieces shipped with the mesh by its package",
+    "convex_hull": "the convex hull of the visual mesh (for nearly convex objects)",
+    "coacd": "convex decomposition of the visual mesh by coacd, run once by 'robolab catalog build'",
+}
+MESH_SOURCE_FIELDS = ["kind", "package", "paths", "textured", "collision_pieces"]
+
+
+def collision_dir(catalog_file: Path) -> Path:
+    """Where the hull files of a catalog's mesh objects live (beside the catalog file)."""
+    return catalog_file.parent / "collision"
 
 
 def _read_object(name: str, fields: Fields) -> CatalogObject:
     fields.only([
         "class", "description", "colors", "rgba", "mass", "friction", "restitution", "source", "license", "container",
+        "interior", "dimensions", "transform", "collision",
     ])  # fmt: skip
     colors = fields.get("colors", list)
     for color in colors:
@@ -137,19 +265,68 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     rgba = fields.number_list("rgba", 4, default_rgba)
     if rgba is None:
         raise fields.error("rgba", "is missing and there is no colour name to derive it from", "Add colors or rgba")
+    palette = (tuple(rgba), *((*COLOR_NAMES[color], 1.0) for color in colors[1:]))
     friction = fields.sub("friction")
     friction.only(["static", "dynamic"])
-    source = fields.sub("source")
-    kind = source.choice("kind", ["procedural"])
-    generator = source.choice("generator", GENERATORS)
-    params = source.get("params", dict, {})
-    try:
-        parts = generate(generator, params)
-    except TypeError as error:
-        raise source.error("params", f"do not fit generator '{generator}' ({error})") from None
+    static_friction, dynamic_friction = friction.get("static", float), friction.get("dynamic", float)
+    if not 0 <= dynamic_friction <= static_friction:
+        raise friction.error("dynamic", f"must be between 0 and static ({static_friction}), got {dynamic_friction}")
     mass = fields.get("mass", float)
     if mass <= 0:
         raise fields.error("mass", f"must be positive, got {mass}")
+    is_container = fields.get("container", bool, False)
+    interior = fields.number_list("interior", 3, None)
+    dimensions = fields.number_list("dimensions", 3, None)
+    collision = fields.sub("collision", {})
+    collision.only(["method", "file"])
+    source = fields.sub("source")
+    kind = source.choice("kind", ["procedural", "mesh"])
+    parts: list[Part] = []
+    transform = None
+    collision_file = None
+    if kind == "procedural":
+        source.only(["kind", "generator", "params"])
+        generator = source.choice("generator", GENERATORS)
+        params = source.get("params", dict, {})
+        try:
+            parts = generate(generator, params)
+        except TypeError as error:
+            raise source.error("params", f"do not fit generator '{generator}' ({error})") from None
+        if is_container and interior is None:
+            interior = procedural_interior(generator, params)
+        method = collision.choice("method", ["primitives"], "primitives")
+        source_record = {"kind": kind, "generator": generator, "params": params}
+    else:
+        source.only(MESH_SOURCE_FIELDS)
+        paths = source.get("paths", list)
+        if not paths or not all(isinstance(path, str) for path in paths):
+            raise source.error("paths", "must be a non-empty list of file paths inside the package")
+        source_record = {
+            "kind": kind, "package": source.get("package", str), "paths": paths,
+            "textured": source.get("textured", bool, False), "collision_pieces": source.get("collision_pieces", str, ""),
+        }  # fmt: skip
+        method = collision.choice("method", [m for m in COLLISION_METHODS if m != "primitives"])
+        if method == "packaged_pieces" and not source_record["collision_pieces"]:
+            raise source.error("collision_pieces", "is needed for collision method 'packaged_pieces'",
+                               "Give a glob of the packaged convex pieces, relative to the first path's folder")  # fmt: skip
+        collision_file = collision_dir(fields.file) / collision.get("file", str, f"{name}.obj")
+        spec = fields.sub("transform", {})
+        spec.only(["scale", "rotation_deg", "translation"])
+        scale = spec.data.get("scale", 1.0)
+        scale_xyz = [float(scale)] * 3 if isinstance(scale, (int, float)) else spec.number_list("scale", 3)
+        if min(scale_xyz) <= 0:
+            raise spec.error("scale", f"must be positive, got {scale}")
+        transform = MeshTransform(
+            scale=tuple(scale_xyz),
+            rotation_deg=tuple(spec.number_list("rotation_deg", 3, [0.0, 0.0, 0.0])),
+            translation=tuple(spec.number_list("translation", 3, [0.0, 0.0, 0.0])),
+        )
+        if dimensions is None:
+            raise fields.error("dimensions", "is missing for a mesh object", "Run 'robolab catalog build' to fill it in")
+    if is_container and interior is None:
+        raise fields.error("interior", "is missing for a container", "Give the inner size [x, y, z] in metres")
+    if dimensions is not None and min(dimensions) <= 0:
+        raise fields.error("dimensions", f"must be positive, got {dimensions}")
     return CatalogObject(
         name=name,
         object_class=fields.choice("class", OBJECT_CLASSES),
@@ -157,13 +334,19 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         colors=tuple(colors),
         rgba=tuple(rgba),
         mass=mass,
-        static_friction=friction.get("static", float),
-        dynamic_friction=friction.get("dynamic", float),
+        static_friction=static_friction,
+        dynamic_friction=dynamic_friction,
         restitution=fields.get("restitution", float, 0.0),
-        source={"kind": kind, "generator": generator, "params": params},
+        source=source_record,
         license=fields.get("license", str),
-        is_container=fields.get("container", bool, False),
+        is_container=is_container,
         parts=tuple(parts),
+        interior=tuple(interior) if interior else None,
+        recorded_dimensions=tuple(dimensions) if dimensions else None,
+        transform=transform,
+        collision_method=method,
+        collision_file=collision_file,
+        palette=palette,
     )
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from robolab_ms.catalog import COLOR_NAMES, Catalog, load_catalog
 from robolab_ms.content import Fields, content_dir, load_yaml
+from robolab_ms.scene.backgrounds import load_looks
 from robolab_ms.errors import UnknownNameError
 
 TABLE_CENTER_XY = (0.55, 0.0)
@@ -44,6 +45,8 @@ class SceneSpec:
     table_rgba: tuple[float, float, float, float]
     jitter_xy: float
     jitter_yaw: float
+    background: str | None = None
+    table_material: str | None = None
 
     def object_names(self) -> list[str]:
         return [placement.name for placement in self.objects]
@@ -53,9 +56,16 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
     """Read and check a scene file against the catalog."""
     catalog = catalog or load_catalog()
     fields = Fields(load_yaml(file), file)
-    fields.only(["name", "description", "table", "objects", "jitter"])
+    fields.only(["name", "description", "table", "objects", "jitter", "background"])
+    looks = load_looks()
+    background = fields.get("background", str, None)
+    if background is not None:
+        fields.name_in("background", looks.backgrounds, "background")
     table = fields.sub("table", {})
-    table.only(["size", "color", "rgba"])
+    table.only(["size", "color", "rgba", "material"])
+    table_material = table.get("material", str, None)
+    if table_material is not None:
+        table.name_in("material", looks.table_materials, "table material")
     table_color = table.get("color", str, "brown")
     if table_color not in COLOR_NAMES:
         raise table.error("color", f"'{table_color}' is not a known colour name", f"Use one of {', '.join(COLOR_NAMES)}")
@@ -89,6 +99,8 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
         table_rgba=tuple(table.number_list("rgba", 4, [*COLOR_NAMES[table_color], 1.0])),
         jitter_xy=jitter.get("xy", float, 0.02),
         jitter_yaw=math.radians(jitter.get("yaw_deg", float, 15.0)),
+        background=background,
+        table_material=table_material,
     )
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import sapien
 import torch
@@ -13,6 +15,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from robolab_ms.catalog import Catalog, CatalogObject
 from robolab_ms.catalog.procedural import Part
+from robolab_ms.scene.backgrounds import load_looks
 from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, yaw_quat
 
 
@@ -30,8 +33,7 @@ class RoboLabSceneBuilder(SceneBuilder):
         table = self.scene.create_actor_builder()
         half = [length / 2, width / 2, TABLE_HEIGHT / 2]
         table.add_box_collision(half_size=half)
-        table.add_box_visual(half_size=half, material=sapien.render.RenderMaterial(
-            base_color=list(self.spec.table_rgba), roughness=0.8))
+        table.add_box_visual(half_size=half, material=self._table_render_material())
         table.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], -TABLE_HEIGHT / 2])
         self.table = table.build_kinematic(name="table")
         self.table_entry = table_entry(self.spec)
@@ -45,6 +47,11 @@ class RoboLabSceneBuilder(SceneBuilder):
         self.pedestal = pedestal.build_kinematic(name="robot_pedestal")
         self.ground = build_ground(self.scene, altitude=-TABLE_HEIGHT)
 
+        if self.spec.background is not None:
+            environment_map = str(load_looks().background(self.spec.background).path())
+            for sub_scene in self.scene.sub_scenes:
+                sub_scene.set_environment_map(environment_map)
+
         for placement in self.spec.objects:
             entry = self.catalog[placement.asset]
             z = -float(entry.bounds[0, 2]) + 0.002
@@ -52,6 +59,15 @@ class RoboLabSceneBuilder(SceneBuilder):
             self.objects[placement.name] = entry.build(self.scene, placement.name, pose)
         self.scene_objects = {"table": self.table, "robot_pedestal": self.pedestal, **self.objects}
         self.movable_objects = dict(self.objects)
+
+    def _table_render_material(self) -> sapien.render.RenderMaterial:
+        """The table's look: the scene's table material (a texture) or its plain colour."""
+        if self.spec.table_material is None:
+            return sapien.render.RenderMaterial(base_color=list(self.spec.table_rgba), roughness=0.8)
+        material = load_looks().table_material(self.spec.table_material)
+        render_material = sapien.render.RenderMaterial(base_color=[1.0, 1.0, 1.0, 1.0], roughness=material.roughness)
+        render_material.base_color_texture = texture_from_file(str(material.path()))
+        return render_material
 
     def initialize(self, env_idx: torch.Tensor, init_config_idxs: list[int] | None = None) -> None:
         count = len(env_idx)
@@ -70,6 +86,12 @@ class RoboLabSceneBuilder(SceneBuilder):
             actor.set_linear_velocity(torch.zeros((count, 3)))
             actor.set_angular_velocity(torch.zeros((count, 3)))
 
+
+
+@lru_cache(maxsize=None)
+def texture_from_file(path: str) -> sapien.render.RenderTexture2D:
+    """A texture image, loaded once per process."""
+    return sapien.render.RenderTexture2D(path, srgb=True)
 
 
 def table_entry(spec: SceneSpec) -> CatalogObject:

@@ -1,0 +1,217 @@
+"""`robolab catalog build`: derive what the catalog needs from the installed asset packages, once.
+
+For every mesh object it reads the packaged visual mesh, applies the entry's scale and rotation, and writes
+  - `transform.translation` (puts the centre of the bottom at the origin) and `dimensions` into the catalog file;
+  - the hull file `assets/collision/<name>.obj`: the object's convex collision pieces in the object frame, made
+    from the packaged pieces, the mesh's convex hull, or a coacd convex decomposition (the slow one, seconds to
+    minutes per mesh; run here and committed, never at environment reset).
+Each hull file starts with a fingerprint of its inputs; a second run skips objects whose inputs did not change,
+so the command is idempotent and cheap to repeat.
+"""
+
+from __future__ import annotations
+
+import glob
+import hashlib
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from robolab_ms.catalog import COLLISION_METHODS, MeshTransform, collision_dir, read_catalog
+from robolab_ms.catalog.meshes import load_mesh, package_file, read_hulls, write_hulls
+from robolab_ms.catalog.procedural import generate, procedural_interior
+from robolab_ms.content import load_yaml
+
+MAX_HULL_VERTICES = 64  # per convex piece; PhysX allows 255, fewer keeps the hull files small
+COACD_PARAMS = {"threshold": 0.05, "max_convex_hull": 24, "preprocess_resolution": 40, "seed": 0}
+FINGERPRINT_PREFIX = "# inputs "
+KEY_ORDER = [
+    "class", "description", "colors", "rgba", "mass", "friction", "restitution", "container", "interior", "dimensions",
+    "source", "transform", "collision", "license",
+]  # fmt: skip
+
+HEADER = """\
+# The robolab_ms object catalog. One entry per object; the schema is in robolab_ms/catalog/__init__.py and
+# docs/catalog.md. Frame: z up, origin at the centre of the object's bottom, metres and kilograms.
+# Procedural objects are generated from their parameters (robolab_ms/catalog/procedural.py) with exact primitive
+# collision. Mesh objects come from installed packages; 'robolab catalog build' fills in transform.translation,
+# dimensions and the hull files under collision/ (edit the rest by hand, then run it again).
+"""
+
+
+@dataclass
+class BuildReport:
+    """What a build did."""
+
+    built: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    seconds: dict[str, float] = field(default_factory=dict)
+    catalog_changed: bool = False
+
+
+def _fingerprint(name: str, entry: dict) -> str:
+    source, transform = entry["source"], entry.get("transform", {})
+    key = {
+        "name": name, "source": source, "scale": transform.get("scale", 1.0),
+        "rotation_deg": transform.get("rotation_deg", [0, 0, 0]), "collision": entry["collision"]["method"],
+        "coacd": COACD_PARAMS if entry["collision"]["method"] == "coacd" else None, "max_vertices": MAX_HULL_VERTICES,
+    }  # fmt: skip
+    return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _stored_fingerprint(path: Path) -> str | None:
+    if not path.is_file():
+        return None
+    with open(path, encoding="utf-8") as handle:
+        for line in handle:
+            if line.startswith(FINGERPRINT_PREFIX):
+                return line[len(FINGERPRINT_PREFIX) :].strip()
+    return None
+
+
+def _small_hull(points: np.ndarray):
+    """The convex hull of a point set with at most MAX_HULL_VERTICES vertices (farthest-point subsampled)."""
+    import trimesh
+
+    hull = trimesh.PointCloud(points).convex_hull
+    vertices = np.asarray(hull.vertices)
+    if len(vertices) > MAX_HULL_VERTICES:
+        extremes = {int(i) for axis in range(3) for i in (vertices[:, axis].argmin(), vertices[:, axis].argmax())}
+        chosen = list(extremes)
+        distance = np.min(np.linalg.norm(vertices[:, None] - vertices[chosen][None], axis=2), axis=1)
+        while len(chosen) < MAX_HULL_VERTICES:
+            index = int(distance.argmax())
+            chosen.append(index)
+            distance = np.minimum(distance, np.linalg.norm(vertices - vertices[index], axis=1))
+        hull = trimesh.PointCloud(vertices[chosen]).convex_hull
+    return hull
+
+
+def _packaged_pieces(entry: dict, transform: MeshTransform) -> list[np.ndarray]:
+    source = entry["source"]
+    folder = package_file(source["package"], source["paths"][0]).parent
+    files = sorted(glob.glob(str(folder / source["collision_pieces"])))
+    if not files:
+        raise FileNotFoundError(f"no packaged collision pieces match {folder / source['collision_pieces']}")
+    pieces = []
+    for file in files:
+        if file.endswith(".stl"):
+            pieces.append(np.asarray(load_mesh(file).vertices))
+        else:
+            pieces.extend(read_hulls(file))  # OBJ files with one group per convex piece
+    return [transform.apply(piece, translate=False) for piece in pieces]
+
+
+def _coacd_pieces(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
+    import coacd
+
+    coacd.set_log_level("error")
+    parts = coacd.run_coacd(coacd.Mesh(vertices, faces), **COACD_PARAMS)
+    return [np.asarray(part_vertices) for part_vertices, _ in parts]
+
+
+def build_object(name: str, entry: dict, out_dir: Path, force: bool = False) -> bool:
+    """Fill in one mesh entry's translation and dimensions and write its hull file; False when already current."""
+    fingerprint = _fingerprint(name, entry)
+    hull_path = out_dir / entry["collision"].get("file", f"{name}.obj")
+    if not force and _stored_fingerprint(hull_path) == fingerprint and "dimensions" in entry:
+        return False
+    spec = entry.setdefault("transform", {})
+    scale = spec.get("scale", 1.0)
+    transform = MeshTransform(
+        scale=(float(scale),) * 3 if isinstance(scale, (int, float)) else tuple(float(s) for s in scale),
+        rotation_deg=tuple(float(a) for a in spec.get("rotation_deg", [0, 0, 0])),
+    )
+    meshes = [load_mesh(str(package_file(entry["source"]["package"], path))) for path in entry["source"]["paths"]]
+    vertices = np.concatenate([transform.apply(np.asarray(mesh.vertices), translate=False) for mesh in meshes])
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    translation = np.array([-(low[0] + high[0]) / 2, -(low[1] + high[1]) / 2, -low[2]])
+    method = entry["collision"]["method"]
+    if method == "packaged_pieces":
+        pieces = _packaged_pieces(entry, transform)
+    elif method == "convex_hull":
+        pieces = [vertices]
+    elif method == "coacd":
+        offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes[:-1]])
+        faces = np.concatenate([np.asarray(mesh.faces) + offset for mesh, offset in zip(meshes, offsets)])
+        pieces = _coacd_pieces(vertices, faces)
+    else:
+        raise ValueError(f"{name}: collision method {method!r} is not one of {', '.join(COLLISION_METHODS)}")
+    hulls = [_small_hull(piece + translation) for piece in pieces if len(piece) >= 4]
+    write_hulls(hull_path, hulls)
+    text = hull_path.read_text(encoding="utf-8")
+    hull_path.write_text(f"{FINGERPRINT_PREFIX}{fingerprint}\n{text}", encoding="utf-8")
+    spec["translation"] = [round(float(t), 5) for t in translation]
+    entry["dimensions"] = [round(float(d), 4) for d in high - low]
+    return True
+
+
+def _describe_procedural(entry: dict) -> None:
+    """Record a procedural object's exact dimensions and, for a container, its interior (from its parameters)."""
+    source = entry["source"]
+    parts = generate(source["generator"], source.get("params", {}))
+    lows = [np.asarray(part.position) - part.half_extent() for part in parts]
+    highs = [np.asarray(part.position) + part.half_extent() for part in parts]
+    size = np.max(highs, axis=0) - np.min(lows, axis=0)
+    entry["dimensions"] = [round(float(d), 4) for d in size]
+    if entry.get("container") and "interior" not in entry:
+        interior = procedural_interior(source["generator"], source.get("params", {}))
+        if interior is not None:
+            entry["interior"] = [round(float(d), 4) for d in interior]
+
+
+def dump_catalog(data: dict) -> str:
+    """The catalog as YAML text: a header, then one block per object with short lists and mappings inline."""
+    lines = [HEADER.rstrip(), f"version: {data.get('version', 1)}", "objects:"]
+    for name, entry in data["objects"].items():
+        lines.append(f"  {name}:")
+        ordered = sorted(entry, key=lambda key: KEY_ORDER.index(key) if key in KEY_ORDER else len(KEY_ORDER))
+        for key in ordered:
+            value = entry[key]
+            if isinstance(value, (dict, list)):
+                text = yaml.safe_dump(value, default_flow_style=True, width=10_000, sort_keys=False).strip()
+            else:
+                text = yaml.safe_dump(value, default_flow_style=True, width=10_000).strip()
+                if text.endswith("\n..."):
+                    text = text[: -len("\n...")]
+                text = text.removesuffix("...").strip()
+            lines.append(f"    {key}: {text}")
+    return "\n".join(lines) + "\n"
+
+
+def build_catalog(
+    catalog_file: Path,
+    names: list[str] | None = None,
+    force: bool = False,
+    progress: Callable[[str], None] = print,
+) -> BuildReport:
+    """Build every mesh object of a catalog file (or only `names`), then check and rewrite the file."""
+    data = load_yaml(catalog_file)
+    objects = data["objects"]
+    out_dir = collision_dir(catalog_file)
+    report = BuildReport()
+    before = dump_catalog(data)
+    for name, entry in objects.items():
+        if entry.get("source", {}).get("kind") == "procedural":
+            _describe_procedural(entry)
+    mesh_names = [name for name, entry in objects.items() if entry.get("source", {}).get("kind") == "mesh"]
+    selected = [name for name in mesh_names if names is None or name in names]
+    for index, name in enumerate(selected, 1):
+        start = time.perf_counter()
+        changed = build_object(name, objects[name], out_dir, force)
+        seconds = time.perf_counter() - start
+        (report.built if changed else report.skipped).append(name)
+        report.seconds[name] = seconds
+        state = f"built in {seconds:.1f} s" if changed else "up to date"
+        progress(f"[{index}/{len(selected)}] {name}: {state}")
+    after = dump_catalog(data)
+    if after != before or catalog_file.read_text(encoding="utf-8") != after:
+        catalog_file.write_text(after, encoding="utf-8")
+        report.catalog_changed = True
+    read_catalog(catalog_file)  # the result must pass the schema
+    return report
