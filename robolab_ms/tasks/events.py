@@ -50,6 +50,8 @@ class EventMonitor:
         self.previous_gripper = torch.zeros(self.num_envs, len(GRIPPER_EVENTS), dtype=torch.bool, device=self.device)
         self.log: list[list[dict]] = [[] for _ in range(self.num_envs)]
         self.centre = torch.tensor(SCENE_CENTRE, device=self.device)
+        nothing = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
+        self.nothing_fired = {f"event_{kind}": nothing for kind in EVENT_TYPES}  # what a step without events reports
 
     def reset(self, env_idx: torch.Tensor) -> None:
         """Remember where every object starts, and forget the events of the environments that restart."""
