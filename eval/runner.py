@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.results import EpisodeResult, append_result, episode_key, read_results
 from robolab_ms.policies import Policy
 
@@ -80,6 +81,8 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
     steps, success_step, info, error = 0, None, {}, None
     try:
         observation, info = env.reset(seed=seed)
+        if policy.privileged:
+            policy.bind(env)
         policy.reset(base.instruction, base.single_action_space, seed)
         while steps < max_steps:
             action = np.asarray(policy.act(observation), dtype=np.float32)
@@ -91,6 +94,8 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
                 bar.set_postfix_str(f"{spec.name} seed {seed} step {steps}/{max_steps}", refresh=False)
             if bool(terminated[0]) or bool(truncated[0]):
                 break
+    except RoboLabError as exc:  # a policy that says why it gives up (e.g. the oracle): no traceback needed
+        error = f"{type(exc).__name__}: {exc}"
     except Exception as exc:  # one broken episode must not end the run; it is recorded with its error
         error = f"{type(exc).__name__}: {exc}"
         traceback.print_exc()

@@ -31,10 +31,13 @@ class TaskEvaluator:
         self._progress_conditions, stages, stage_targets = spec.progress_layout()
         self.progress_tracker = ProgressTracker(stages, self.num_envs, self.device)
         contact = list(spec.contact_objects)
-        # row s: which contact objects are targets while stage s runs (the last row, after the end: none)
-        self._stage_targets = torch.tensor(
-            [[name in targets for name in contact] for targets in stage_targets] + [[False] * len(contact)],
-            dtype=torch.bool, device=self.device)  # fmt: skip
+        # row s: which contact objects are targets while stage s runs: its own objects and those of earlier stages
+        # (they were moved on purpose); the last row, after the end, holds every stage's objects
+        rows, so_far = [], set()
+        for targets in stage_targets:
+            so_far |= set(targets)
+            rows.append([name in so_far for name in contact])
+        self._stage_targets = torch.tensor(rows + rows[-1:], dtype=torch.bool, device=self.device)
         self.events = EventMonitor(context, contact, spec.event_thresholds)
         self._last: dict[str, torch.Tensor] | None = None  # the last full result, while it may be reused
         self._last_inputs: tuple[tuple, torch.Tensor] | None = None

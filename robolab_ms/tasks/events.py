@@ -2,8 +2,8 @@
 
 Each event type is a per-object (or per-gripper) condition evaluated every control step; an event fires on the
 step its condition becomes true and re-arms once the condition clears, so a lasting situation is recorded once.
-Targets are the objects of the current subtask stage; everything else in the task's contact objects is a
-non-target. Thresholds have RoboLab's defaults and can be changed per task (`events:` in the task spec).
+Targets are the objects of the current subtask stage and of the stages before it; everything else in the task's
+contact objects is a non-target. Thresholds have RoboLab's defaults and can be changed per task (`events:` in the task spec).
 """
 
 from __future__ import annotations
