@@ -70,7 +70,8 @@ class EventMonitor:
         """One control step. `targets`: (E, O) bool, the current stage's objects; `closed`: (E,) gripper closed
         fraction in [0, 1]. Returns, per event type, whether it fired in each environment (E,)."""
         ctx, limits = self.ctx, self.thresholds
-        touching = ctx.gripper_forces(self.objects) > CONTACT_FORCE_N
+        finger_contacts = ctx.gripper_forces([*self.objects, TABLE]) > CONTACT_FORCE_N  # (E, O + 1)
+        touching, touching_table = finger_contacts[:, :-1], finger_contacts[:, -1]
         positions, ups = self._positions_and_ups()
         moved = torch.linalg.norm(positions - self.start_position, dim=-1)
         cos_turned = (ups * self.start_up).sum(-1)
@@ -86,7 +87,7 @@ class EventMonitor:
             cos_turned < math.cos(limits["tip_angle"]),
         ], dim=1)  # fmt: skip
         gripper_now = torch.stack([  # in GRIPPER_EVENTS order, (E, 3)
-            ctx.contact_force(GRIPPER, TABLE) > CONTACT_FORCE_N,
+            touching_table,
             closed >= limits["fully_closed"],
             touching.sum(dim=1) >= 2,
         ], dim=1)  # fmt: skip
@@ -96,9 +97,7 @@ class EventMonitor:
         object_fired, gripper_fired = object_rising.any(dim=-1), gripper_rising
         if bool(object_fired.any() | gripper_fired.any()):
             self._record(object_rising, gripper_rising)
-        fired = {kind: object_fired[:, i] for i, kind in enumerate(OBJECT_EVENTS)}
-        fired.update({kind: gripper_fired[:, i] for i, kind in enumerate(GRIPPER_EVENTS)})
-        return fired
+        return dict(zip(EVENT_TYPES, (*object_fired.unbind(1), *gripper_fired.unbind(1))))
 
     def _record(self, object_rising: torch.Tensor, gripper_rising: torch.Tensor) -> None:
         steps = self.ctx.elapsed_steps.tolist()
