@@ -34,7 +34,7 @@ def main() -> None:
 
     env = RoboLabEnv(task=str(TASK), obs_mode="state", render_backend="cpu")
     env.reset(seed=0)
-    action = np.concatenate([env.agent.robot.get_qpos()[0, :7].numpy(), [0.0]]).astype(np.float32)
+    action = np.concatenate([env.arm_qpos()[0].numpy(), [0.0]]).astype(np.float32)
     bodies = [body for body in env.eval_context._free_bodies]
     real_evaluate = env.evaluate
     nothing = torch.zeros(env.num_envs, dtype=torch.bool)

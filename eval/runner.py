@@ -7,7 +7,7 @@ import platform
 import subprocess
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +28,7 @@ class EvalConfig:
     tasks: tuple[str, ...]
     episodes: int = 10
     instruction: str = "default"
-    robot: str = "panda"
+    robot: str | None = None  # a robot uid (droid, panda, so100); None = the environments' default, droid
     first_seed: int = 0
     max_steps: int | None = None  # cut episodes short (for smoke tests); None = the task's episode length
 
@@ -37,8 +37,11 @@ def run_evaluation(policy: Policy, config: EvalConfig, out_dir: Path, show_progr
     """Run every missing episode and append its result; returns all results of this policy in `out_dir`."""
     import gymnasium as gym
 
-    import robolab_ms.envs  # noqa: F401  (registers the environments)
+    import robolab_ms.envs  # noqa: F401  (registers the environments and the robots)
+    from robolab_ms.agents import DEFAULT_ROBOT
     from robolab_ms.tasks.spec import load_task
+
+    config = replace(config, robot=config.robot or DEFAULT_ROBOT)
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

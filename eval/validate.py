@@ -56,7 +56,7 @@ def check_rest(task: str, seeds: range) -> tuple[float, int]:
             _, info = env.reset(seed=seed)
             solved += bool(info["success"][0])
             start = {name: actor.pose.p[0].clone() for name, actor in base.objects.items()}
-            hold = np.concatenate([base.agent.robot.get_qpos()[0, :7].numpy(), [0.0]]).astype(np.float32)
+            hold = np.concatenate([base.arm_qpos()[0].numpy(), [0.0]]).astype(np.float32)
             for _ in range(-(-STABILITY_PHYSICS_STEPS // (base.sim_freq // base.control_freq))):
                 env.step(hold)
             for name, actor in base.objects.items():

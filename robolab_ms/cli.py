@@ -45,7 +45,13 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         raise RoboLabError(f"--instruction must be one of {', '.join(INSTRUCTION_VARIANTS)}")
     policy = make_policy(args.policy)
     tasks = tuple(load_task(task).name for task in args.task)  # unknown names fail here, with suggestions
-    config = EvalConfig(tasks=tasks, episodes=args.episodes, instruction=args.instruction,
+    robot = None
+    if args.robot:
+        import robolab_ms.envs  # noqa: F401  (registers the environments and the robots)
+        from robolab_ms.agents import robot_binding
+
+        robot = robot_binding(args.robot).uid
+    config = EvalConfig(tasks=tasks, episodes=args.episodes, instruction=args.instruction, robot=robot,
                         first_seed=args.seed, max_steps=args.max_steps)  # fmt: skip
     out = Path(args.out)
     try:
@@ -108,6 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--episodes", type=int, default=10, help="episodes per task (default: 10)")
     evaluate.add_argument("--out", default="results/latest", help="results folder (default: results/latest)")
     evaluate.add_argument("--instruction", default="default", help="instruction variant: default, vague or specific")
+    evaluate.add_argument("--robot", default=None,
+                          help="robot: droid (default; Panda + Robotiq 2F-85), panda or so100")  # fmt: skip
     evaluate.add_argument("--seed", type=int, default=0, help="first episode seed (default: 0)")
     evaluate.add_argument("--max-steps", type=int, default=None,
                           help="cut episodes after this many control steps (default: the task's length)")  # fmt: skip

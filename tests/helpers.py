@@ -20,4 +20,4 @@ def put(env, name, xyz, quat=(1.0, 0.0, 0.0, 0.0)):
 
 def hold_arm_action(env, gripper: float) -> np.ndarray:
     """An action that keeps the arm where it is, with this gripper command."""
-    return np.concatenate([env.agent.robot.get_qpos()[0, :7].numpy(), [gripper]]).astype(np.float32)
+    return np.concatenate([env.arm_qpos()[0].numpy(), [gripper]]).astype(np.float32)

@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-import torch
 
 from robolab_ms.tasks.events import EVENT_TYPES
 from helpers import hold_arm_action, put
@@ -99,7 +98,7 @@ def test_bumped_moved_out_of_scene_and_tipped(env):
 
 
 def test_gripper_hits_table(env):
-    env.agent.robot.set_qpos(torch.tensor([TABLE_TOUCH_QPOS + [0.04, 0.04]]))
+    env.set_arm_qpos(TABLE_TOUCH_QPOS)
     assert "gripper_hit_table" in run(env, steps=4, arm=TABLE_TOUCH_QPOS)
 
 

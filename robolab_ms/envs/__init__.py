@@ -9,6 +9,7 @@ from __future__ import annotations
 from mani_skill.utils.registration import REGISTERED_ENVS, register_env
 
 from robolab_ms.content import content_dir, load_yaml
+from robolab_ms.envs.droid_obs import DroidObservation
 from robolab_ms.envs.robolab_env import RoboLabEnv
 from robolab_ms.errors import RoboLabError
 from robolab_ms.tasks.spec import CONTROL_HZ
@@ -34,4 +35,4 @@ def register_all_tasks() -> list[str]:
 
 ENV_IDS = register_all_tasks()
 
-__all__ = ["RoboLabEnv", "ENV_IDS", "register_all_tasks"]
+__all__ = ["RoboLabEnv", "DroidObservation", "ENV_IDS", "register_all_tasks"]

@@ -2,8 +2,9 @@
 
 The task spec (task_specs/<Task>.yaml) names the scene (scene_builders/<scene>.yaml); the scene is built by
 RoboLabSceneBuilder; evaluate() runs the spec's success conditions through the predicate registry and the subtask
-state machine. Physics runs at 120 Hz and control at 15 Hz. Actions follow DROID: 7 absolute arm joint targets and
-one gripper value (0 open, 1 closed; above 0.5 closes).
+state machine. Physics runs at 120 Hz and control at 15 Hz. The robot is chosen at run time (`robot_uids`, default
+`droid`, see robolab_ms.agents). Actions follow DROID: absolute arm joint targets (7 for the Panda arms) and one
+gripper value (0 open, 1 closed; above 0.5 closes).
 """
 
 from __future__ import annotations
@@ -16,14 +17,16 @@ import numpy as np
 import sapien
 import torch
 from gymnasium import spaces
-from mani_skill.agents.robots import Panda
+from mani_skill.agents.base_agent import BaseAgent
 from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.sensors.camera import CameraConfig
-from mani_skill.utils import common, sapien_utils
+from mani_skill.utils import common
 from mani_skill.utils.structs.pose import Pose
 from mani_skill.utils.structs.types import SimConfig
 
+from robolab_ms.agents import DEFAULT_ROBOT, ROBOT_BINDINGS, robot_binding
 from robolab_ms.catalog import load_catalog
+from robolab_ms.envs import cameras as cameras_module
 from robolab_ms.errors import RoboLabError, UnknownNameError
 from robolab_ms.render_check import NO_DEVICE_HELP
 from robolab_ms.scene.builder import RoboLabSceneBuilder
@@ -33,20 +36,6 @@ from robolab_ms.tasks.predicates import TABLE
 from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS, load_task
 
 SIM_HZ = 120
-HOME_ARM_QPOS = [0.0, -math.pi / 5, 0.0, -4 * math.pi / 5, 0.0, 3 * math.pi / 5, 0.0]  # DROID home
-PANDA_FINGER_OPEN = 0.04  # finger joint position (m) of a fully open Panda gripper
-NATIVE_WIDTH, NATIVE_HEIGHT = 1280, 720
-EXTERNAL_FOCAL_NATIVE = 500.0  # px at 1280x720 (horizontal field of view 104 deg)
-WRIST_FOCAL_NATIVE = 666.7  # px at 1280x720 (87.7 deg)
-EXTERNAL_LEFT_EYE = [0.05, 0.57, 0.66]
-EXTERNAL_LEFT_TARGET = [0.55, -0.12, 0.0]
-
-
-def scaled_intrinsic(focal_native: float, width: int, height: int) -> np.ndarray:
-    """A pinhole matrix with DROID's native focal length scaled to width x height."""
-    fx = focal_native * width / NATIVE_WIDTH
-    fy = focal_native * height / NATIVE_HEIGHT
-    return np.array([[fx, 0.0, width / 2], [0.0, fy, height / 2], [0.0, 0.0, 1.0]])
 
 
 class RoboLabEnv(BaseEnv):
@@ -55,31 +44,40 @@ class RoboLabEnv(BaseEnv):
     Args:
         task: task name (the spec file's stem), set by the registration of each id.
         instruction: which instruction variant the episode carries: default, vague or specific.
-        camera_width, camera_height: resolution of the two policy cameras (default 320x180).
+        robot_uids: the robot, one of `ROBOT_BINDINGS` (default `droid`: Panda + Robotiq 2F-85).
+        cameras: the policy cameras, any of external_left, external_right, wrist (default external_left + wrist).
+        camera_width, camera_height: their resolution (default 320x180, at most 1280x720).
+        video_width, video_height: resolution of the `video` camera that `render()` uses (not an observation).
         Other keyword arguments go to ManiSkill's BaseEnv (obs_mode, render_mode, sim_backend, ...).
     """
 
-    SUPPORTED_ROBOTS = ["panda"]
+    SUPPORTED_ROBOTS = list(ROBOT_BINDINGS)
     SUPPORTED_REWARD_MODES = ("sparse", "none")
-    agent: Panda
+    agent: BaseAgent
 
     def __init__(
         self,
         *args: Any,
         task: str,
         instruction: str = "default",
-        robot_uids: str = "panda",
+        robot_uids: str = DEFAULT_ROBOT,
         control_mode: str | None = None,
+        cameras: tuple[str, ...] | list[str] = cameras_module.DEFAULT_CAMERAS,
         camera_width: int = 320,
         camera_height: int = 180,
+        video_width: int = 640,
+        video_height: int = 360,
         **kwargs: Any,
     ) -> None:
         self.task_spec = load_task(task)
         if instruction not in INSTRUCTION_VARIANTS:
             raise UnknownNameError("instruction variant", instruction, INSTRUCTION_VARIANTS)
+        self.robot = robot_binding(robot_uids)
         self.instruction_variant = instruction
         self.instruction = self.task_spec.instructions[instruction]
+        self.camera_names = cameras_module.check_cameras(cameras, camera_width, camera_height)
         self.camera_width, self.camera_height = camera_width, camera_height
+        self.video_size = (video_width, video_height)
         self.catalog = load_catalog()
         if kwargs.get("render_backend", "gpu") == "gpu" and not torch.cuda.is_available():
             kwargs["render_backend"] = "cpu"  # what ManiSkill falls back to anyway, without its warning
@@ -98,24 +96,17 @@ class RoboLabEnv(BaseEnv):
 
     @property
     def _default_sensor_configs(self) -> list[CameraConfig]:
-        width, height = self.camera_width, self.camera_height
-        external = sapien_utils.look_at(eye=EXTERNAL_LEFT_EYE, target=EXTERNAL_LEFT_TARGET)
-        # Wrist camera on the hand, a little off the gripper axis, looking along the fingers (hand +z).
-        wrist = sapien_utils.look_at(eye=[0.06, 0.0, 0.0], target=[0.0, 0.0, 0.2], up=[1.0, 0.0, 0.0])
-        return [
-            CameraConfig("external_left", external, width, height,
-                         intrinsic=scaled_intrinsic(EXTERNAL_FOCAL_NATIVE, width, height), near=0.01, far=10),
-            CameraConfig("wrist", wrist, width, height, intrinsic=scaled_intrinsic(WRIST_FOCAL_NATIVE, width, height),
-                         near=0.01, far=10, mount=self.agent.robot.links_map["panda_hand"]),
-        ]  # fmt: skip
+        mount = self.agent.robot.links_map[self.robot.wrist_mount_link]
+        return cameras_module.policy_camera_configs(
+            self.camera_names, self.camera_width, self.camera_height, mount, cameras_module.wrist_pose(self.robot)
+        )
 
     @property
     def _default_human_render_camera_configs(self) -> CameraConfig:
-        pose = sapien_utils.look_at(eye=[1.5, 0.9, 0.8], target=[0.45, 0.0, 0.05])
-        return CameraConfig("render_camera", pose, 640, 480, fov=math.radians(55), near=0.01, far=10)
+        return cameras_module.video_camera_config(*self.video_size)
 
     def _set_droid_action_space(self) -> None:
-        """Replace the gripper's [-1, 1] range of the ManiSkill controller with DROID's [0, 1]."""
+        """Replace the gripper's controller range with DROID's [0, 1]."""
         low = self.single_action_space.low.copy()
         high = self.single_action_space.high.copy()
         low[-1], high[-1] = 0.0, 1.0
@@ -127,7 +118,11 @@ class RoboLabEnv(BaseEnv):
 
     # ------------------------------------------------------------------------------------------------ lifecycle
     def _load_agent(self, options: dict) -> None:
-        super()._load_agent(options, sapien.Pose(p=[0.0, 0.0, 0.0]))
+        super()._load_agent(options, self._robot_base_pose())
+
+    def _robot_base_pose(self) -> sapien.Pose:
+        yaw = self.robot.base_yaw
+        return sapien.Pose(p=[0.0, 0.0, 0.0], q=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
 
     def _load_scene(self, options: dict) -> None:
         spec = self.task_spec
@@ -136,7 +131,15 @@ class RoboLabEnv(BaseEnv):
         self.objects = self.scene_builder.objects
         entries = {p.name: self.catalog[p.asset] for p in spec.scene.objects}
         entries[TABLE] = self.scene_builder.table_entry
-        fingers = [self.agent.finger1_link, self.agent.finger2_link]
+        links = self.agent.robot.links_map
+        fingers = [links[name] for name in self.robot.finger_links]
+        joints = [joint.name for joint in self.agent.robot.active_joints]
+        self._arm_joint_index = torch.tensor([joints.index(j) for j in self.robot.arm_joints], device=self.device)
+        self._gripper_joint_index = torch.tensor([joints.index(j) for j in self.robot.gripper_joints], device=self.device)
+        home = torch.zeros(len(joints))
+        home[self._arm_joint_index.cpu()] = torch.tensor(self.robot.home_arm_qpos, dtype=torch.float32)
+        home[self._gripper_joint_index.cpu()] = self.robot.gripper_open_qpos
+        self._home_qpos = home.to(self.device)
         actors = {**self.objects, TABLE: self.scene_builder.table}
         self.eval_context = EvalContext(self.scene, actors, entries, fingers, self.device)
         self.task_evaluator = TaskEvaluator(spec, self.eval_context)
@@ -145,22 +148,34 @@ class RoboLabEnv(BaseEnv):
         with torch.device(self.device):
             self.scene_builder.initialize(env_idx)
             count = len(env_idx)
-            qpos = torch.tensor([*HOME_ARM_QPOS, PANDA_FINGER_OPEN, PANDA_FINGER_OPEN]).repeat(count, 1)
-            self.agent.reset(qpos)
-            self.agent.robot.set_pose(Pose.create_from_pq(torch.zeros((count, 3))))
+            self.agent.reset(self._home_qpos.repeat(count, 1))
+            self.agent.robot.set_pose(Pose.create(self._robot_base_pose()))
             self.task_evaluator.reset(env_idx)
 
     def gripper_closed_fraction(self) -> torch.Tensor:
         """How far the gripper is closed, 0 open to 1 closed: (num_envs,)."""
-        fingers = self.agent.robot.get_qpos()[:, -2:].mean(dim=1)
-        return (1.0 - fingers / PANDA_FINGER_OPEN).clamp(0.0, 1.0)
+        return self.robot.closed_fraction(self.agent.robot.get_qpos()[:, self._gripper_joint_index])
+
+    def arm_qpos(self) -> torch.Tensor:
+        """Arm joint positions (rad), gripper excluded: (num_envs, arm joints)."""
+        return self.agent.robot.get_qpos()[:, self._arm_joint_index]
+
+    def set_arm_qpos(self, arm_qpos: torch.Tensor | list[float]) -> None:
+        """Teleport the arm to these joint positions (rad), for every environment; the gripper stays as it is."""
+        qpos = self.agent.robot.get_qpos().clone()
+        qpos[:, self._arm_joint_index] = torch.as_tensor(arm_qpos, dtype=qpos.dtype, device=self.device)
+        self.agent.robot.set_qpos(qpos)
+
+    def tcp_pose(self) -> Pose:
+        """End-effector pose (between the fingertips)."""
+        return self.agent.tcp_pose
 
     # ------------------------------------------------------------------------------------------------ stepping
     def _step_action(self, action: Any) -> Any:
-        """Map DROID's gripper value (0 open, 1 closed, > 0.5 closes) to the controller's (+1 open, -1 closed)."""
+        """Map DROID's gripper value (0 open, 1 closed, > 0.5 closes) to the robot's gripper controller value."""
         if isinstance(action, (np.ndarray, torch.Tensor)):
             action = common.to_tensor(action, device=self.device).clone().float()
-            action[..., -1] = torch.where(action[..., -1] > 0.5, -1.0, 1.0)
+            action[..., -1] = self.robot.gripper_action(action[..., -1])
         return super()._step_action(action)
 
     def evaluate(self) -> dict[str, torch.Tensor]:
@@ -176,7 +191,7 @@ class RoboLabEnv(BaseEnv):
         return info
 
     def _get_obs_extra(self, info: dict) -> dict[str, torch.Tensor]:
-        extra = dict(tcp_pose=self.agent.tcp.pose.raw_pose, gripper_position=self.gripper_closed_fraction()[:, None])
+        extra = dict(tcp_pose=self.tcp_pose().raw_pose, gripper_position=self.gripper_closed_fraction()[:, None])
         if self.obs_mode_struct.use_state:
             for name, actor in self.objects.items():
                 extra[f"{name}_pose"] = actor.pose.raw_pose

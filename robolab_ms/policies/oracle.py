@@ -28,7 +28,13 @@ LIFT_HEIGHT = 0.15  # m an object is lifted before it travels
 RELEASE_CLEARANCE = 0.03  # m between the held object's bottom and the place surface when the gripper opens
 GRIPPER_STEPS = 8  # control steps to close or open the gripper (about half a second)
 SETTLE_STEPS = 3  # control steps held at the end of every move, for the PD controller to catch up
+GRASP_DEPTH = 0.03  # m below an object's top where the TCP (the middle of the finger pads) closes ...
+FINGERTIP_CLEARANCE = 0.025  # ... but at least this high above its bottom, so the fingertips stay off the table
 IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
+PANDA_ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
+FLANGE_LINK = "panda_link8"
+PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
+PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
 
 
 class OracleFailure(RoboLabError):
@@ -99,6 +105,8 @@ class OraclePolicy(Policy):
         robot = self.env.robot_uids
         if self._planner_robot != robot:
             self._planner, self._planner_robot = _make_planner(self.env), robot
+        flange = self.env.agent.robot.links_map[FLANGE_LINK].pose
+        self._tcp_in_flange = (flange.inv() * self.env.tcp_pose()).sp  # fixed: the hand is rigid on the flange
 
     def reset(self, instruction: str, action_space: spaces.Box, seed: int) -> None:
         if self.env is None:
@@ -110,7 +118,7 @@ class OraclePolicy(Policy):
     def act(self, observation: dict[str, Any]) -> np.ndarray:
         while not self.actions:
             if not self.jobs:  # everything done: hold still with the gripper open
-                return self._action(self._arm_qpos(), 0.0)
+                return self._action(self._planner_qpos(), 0.0)
             self._plan_job(self.jobs.popleft())
         return self.actions.popleft()
 
@@ -118,7 +126,7 @@ class OraclePolicy(Policy):
     def _plan_job(self, job: Job) -> None:
         env = self.env
         grasp = grasp_pose(env, job.obj)
-        qpos = self._full_qpos()
+        qpos = self._planner_qpos()
         qpos = self._move(qpos, _raised(grasp, APPROACH_HEIGHT), f"reach above '{job.obj}'", straight=False)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
@@ -137,6 +145,7 @@ class OraclePolicy(Policy):
     def _move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
         """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints."""
         planner, step = self._planner, 1.0 / self.env.control_freq
+        pose = self._flange_target(pose)
         result = planner.plan_screw(pose, qpos, time_step=step) if straight else {"status": "not tried"}
         if result["status"] != "Success":
             result = planner.plan_qpos_to_pose(pose, qpos, time_step=step, planning_time=2.0)
@@ -146,45 +155,51 @@ class OraclePolicy(Policy):
                 result = planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=2.0)
         if result["status"] != "Success":
             raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
-        arm = result["position"]
-        for joints in arm:
-            self.actions.append(self._action(joints, self.gripper))
         final = qpos.copy()
-        final[: arm.shape[1]] = arm[-1]
+        for joints in result["position"]:
+            final[planner.move_group_joint_indices] = joints
+            self.actions.append(self._action(final, self.gripper))
         self._hold(final, self.gripper, SETTLE_STEPS)
         return final
+
+    def _flange_target(self, tcp_pose: np.ndarray) -> np.ndarray:
+        """The flange pose [x, y, z, qw, qx, qy, qz] that puts the TCP at `tcp_pose`."""
+        import sapien
+
+        flange = sapien.Pose(p=tcp_pose[:3], q=tcp_pose[3:]) * self._tcp_in_flange.inv()
+        return np.concatenate([flange.p, flange.q])
 
     def _hold(self, qpos: np.ndarray, gripper: float, steps: int) -> None:
         self.gripper = gripper
         for _ in range(steps):
-            self.actions.append(self._action(qpos[:7], gripper))
+            self.actions.append(self._action(qpos, gripper))
 
-    def _action(self, arm: np.ndarray, gripper: float) -> np.ndarray:
-        return np.concatenate([np.asarray(arm, dtype=np.float32)[:7], [gripper]]).astype(np.float32)
+    def _action(self, qpos: np.ndarray, gripper: float) -> np.ndarray:
+        """The env's 8-D action from a planning-model joint vector: 7 arm joint targets, then the gripper."""
+        return np.concatenate([qpos[:7], [gripper]]).astype(np.float32)
 
-    def _full_qpos(self) -> np.ndarray:
-        return self.env.agent.robot.get_qpos()[0].cpu().numpy().astype(np.float64)
-
-    def _arm_qpos(self) -> np.ndarray:
-        return self._full_qpos()[:7]
+    def _planner_qpos(self) -> np.ndarray:
+        """The planning model's joints (the Panda arm's 7, then its 2 fingers, kept open) from the robot's state."""
+        arm = self.env.arm_qpos()[0].cpu().numpy().astype(np.float64)
+        return np.concatenate([arm, [0.04, 0.04]])
 
 
 def _make_planner(env: RoboLabEnv):
-    """An mplib planner for the env's robot, from the agent's URDF and SRDF, moving its TCP link."""
+    """An mplib planner for the robot's arm. Every supported robot has a Panda arm, so the planner uses ManiSkill's
+    Panda model (with its collision pairs) and moves the flange, panda_link8; the hand on the flange differs per
+    robot and is accounted for by the flange-to-TCP transform read from the robot (see OraclePolicy.bind)."""
     import mplib
+    from mani_skill import PACKAGE_ASSET_DIR
 
-    agent = env.agent
-    urdf = Path(agent.urdf_path)
-    srdf = urdf.with_suffix(".srdf")
-    robot = agent.robot
+    if tuple(env.robot.arm_joints) != PANDA_ARM_JOINTS:
+        raise OracleFailure(f"the oracle plans for Panda arms (droid, panda); robot '{env.robot_uids}' has another arm")
+    model = Path(PACKAGE_ASSET_DIR) / "robots" / "panda" / "panda_v2.urdf"
     return mplib.Planner(
-        urdf=str(urdf),
-        srdf=str(srdf) if srdf.exists() else "",
-        user_link_names=[link.get_name() for link in robot.get_links()],
-        user_joint_names=[joint.get_name() for joint in robot.get_active_joints()],
-        move_group=agent.tcp.name,
-        joint_vel_limits=np.ones(7) * 1.2,
-        joint_acc_limits=np.ones(7) * 1.5,
+        urdf=str(model),
+        srdf=str(model.with_suffix(".srdf")),
+        move_group=FLANGE_LINK,
+        joint_vel_limits=np.full(7, PLANNING_JOINT_SPEED),
+        joint_acc_limits=np.full(7, PLANNING_JOINT_ACCELERATION),
     )
 
 
@@ -203,7 +218,7 @@ def object_bottom(env: RoboLabEnv, name: str) -> float:
 
 def grasp_pose(env: RoboLabEnv, name: str) -> np.ndarray:
     """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP: fingers close across the object's narrowest
-    horizontal direction, a little below its top."""
+    horizontal direction, a little below its top and clear of the table."""
     env.eval_context.refresh()
     points = _world_points(env, name)
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
@@ -211,7 +226,7 @@ def grasp_pose(env: RoboLabEnv, name: str) -> np.ndarray:
     _, vectors = np.linalg.eigh(xy.T @ xy)
     narrow = vectors[:, 0]  # the direction of least spread: the fingers close along it
     top, bottom = points[:, 2].max(), points[:, 2].min()
-    z = max(top - 0.03, bottom + 0.015)
+    z = max(top - GRASP_DEPTH, bottom + FINGERTIP_CLEARANCE)
     return np.concatenate([[centre[0], centre[1], z], _down_quaternion(narrow)])
 
 

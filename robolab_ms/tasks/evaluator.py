@@ -4,8 +4,8 @@ It owns the task's per-step logic: success conditions (OR'ed), the subtask progr
 all reading one EvalContext. The environment feeds it the step counter and the gripper's closed fraction.
 
 Quiet steps. On the CPU simulator, a step in which every tracked object is asleep (PhysX moved none of them), the
-fingers' contacts are exactly those of the previous step and the gripper did not move, cannot change any predicate,
-the progress or an event: the previous step's result is returned without evaluating anything. The previous step
+fingers' contacts are exactly those of the previous step and the gripper's closed fraction is on the same side of
+every event threshold, cannot change any predicate, the progress or an event: the previous step's result is returned without evaluating anything. The previous step
 must itself have been a full evaluation that left the subtask stage unchanged (a new stage reads its own
 conditions for the first time). Reset, and the GPU simulator, always evaluate in full.
 """
@@ -40,7 +40,7 @@ class TaskEvaluator:
         self._stage_targets = torch.tensor(rows + rows[-1:], dtype=torch.bool, device=self.device)
         self.events = EventMonitor(context, contact, spec.event_thresholds)
         self._last: dict[str, torch.Tensor] | None = None  # the last full result, while it may be reused
-        self._last_inputs: tuple[tuple, torch.Tensor] | None = None
+        self._last_inputs: tuple[tuple, torch.Tensor] | None = None  # finger contacts, gripper closed levels
         self.quiet_steps = 0  # how many evaluations reused the previous result (for benchmarks and tests)
 
     def reset(self, env_idx: torch.Tensor) -> None:
@@ -56,16 +56,17 @@ class TaskEvaluator:
         context = self.context
         context.refresh(elapsed_steps)
         finger_contacts = context.finger_contacts_if_at_rest()
+        closed_levels = self.events.closed_levels(gripper_closed) if finger_contacts is not None else None
         if finger_contacts is not None and self._last is not None:
-            last_contacts, last_closed = self._last_inputs
-            if finger_contacts == last_contacts and torch.equal(gripper_closed, last_closed):
+            last_contacts, last_levels = self._last_inputs
+            if finger_contacts == last_contacts and torch.equal(closed_levels, last_levels):
                 self.quiet_steps += 1
                 return dict(self._last, **self.events.nothing_fired)
         stage_before = self.progress_tracker.stage_index
         result = self._evaluate_in_full(gripper_closed)
         reusable = finger_contacts is not None and torch.equal(result["stage"], stage_before)
         self._last = result if reusable else None
-        self._last_inputs = (finger_contacts, gripper_closed.clone()) if reusable else None
+        self._last_inputs = (finger_contacts, closed_levels) if reusable else None
         return result
 
     def _evaluate_in_full(self, gripper_closed: torch.Tensor) -> dict[str, torch.Tensor]:

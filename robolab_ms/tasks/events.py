@@ -63,6 +63,11 @@ class EventMonitor:
         for index in env_idx.tolist():
             self.log[index] = []
 
+    def closed_levels(self, closed: torch.Tensor) -> torch.Tensor:
+        """What the events read of the gripper's closed fraction (E,): whether it reaches each threshold, (E, 2)."""
+        limits = self.thresholds
+        return torch.stack([closed >= limits["wrong_grasp_closed"], closed >= limits["fully_closed"]], dim=1)
+
     def _positions_and_ups(self) -> tuple[torch.Tensor, torch.Tensor]:
         return self.ctx.all_centres()[:, self.columns], self.ctx.all_up_axes()[:, self.columns]
 
