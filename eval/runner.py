@@ -7,13 +7,14 @@ import platform
 import subprocess
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
+from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.results import EpisodeResult, append_result, episode_key, read_results
 from robolab_ms.policies import Policy
 
@@ -27,7 +28,7 @@ class EvalConfig:
     tasks: tuple[str, ...]
     episodes: int = 10
     instruction: str = "default"
-    robot: str = "panda"
+    robot: str | None = None  # a robot uid (droid, panda, so100); None = the environments' default, droid
     first_seed: int = 0
     max_steps: int | None = None  # cut episodes short (for smoke tests); None = the task's episode length
 
@@ -36,8 +37,11 @@ def run_evaluation(policy: Policy, config: EvalConfig, out_dir: Path, show_progr
     """Run every missing episode and append its result; returns all results of this policy in `out_dir`."""
     import gymnasium as gym
 
-    import robolab_ms.envs  # noqa: F401  (registers the environments)
+    import robolab_ms.envs  # noqa: F401  (registers the environments and the robots)
+    from robolab_ms.agents import DEFAULT_ROBOT
     from robolab_ms.tasks.spec import load_task
+
+    config = replace(config, robot=config.robot or DEFAULT_ROBOT)
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -80,6 +84,8 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
     steps, success_step, info, error = 0, None, {}, None
     try:
         observation, info = env.reset(seed=seed)
+        if policy.privileged:
+            policy.bind(env)
         policy.reset(base.instruction, base.single_action_space, seed)
         while steps < max_steps:
             action = np.asarray(policy.act(observation), dtype=np.float32)
@@ -91,6 +97,8 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
                 bar.set_postfix_str(f"{spec.name} seed {seed} step {steps}/{max_steps}", refresh=False)
             if bool(terminated[0]) or bool(truncated[0]):
                 break
+    except RoboLabError as exc:  # a policy that says why it gives up (e.g. the oracle): no traceback needed
+        error = f"{type(exc).__name__}: {exc}"
     except Exception as exc:  # one broken episode must not end the run; it is recorded with its error
         error = f"{type(exc).__name__}: {exc}"
         traceback.print_exc()

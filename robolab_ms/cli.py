@@ -1,9 +1,11 @@
-"""The `robolab` command line: list tasks, evaluate policies.
+"""The `robolab` command line: list tasks, evaluate policies, validate tasks, build and check the catalog.
 
 Examples:
   robolab list
   robolab eval --policy random --task BananaInBowl --episodes 2 --out results/demo
   robolab catalog build | check [--objects NAME ...] | sheet | list
+  robolab eval --policy oracle --task BananaInBowl --episodes 10
+  robolab validate --task BananaInBowl --seeds 10
 """
 
 from __future__ import annotations
@@ -44,7 +46,13 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         raise RoboLabError(f"--instruction must be one of {', '.join(INSTRUCTION_VARIANTS)}")
     policy = make_policy(args.policy)
     tasks = tuple(load_task(task).name for task in args.task)  # unknown names fail here, with suggestions
-    config = EvalConfig(tasks=tasks, episodes=args.episodes, instruction=args.instruction,
+    robot = None
+    if args.robot:
+        import robolab_ms.envs  # noqa: F401  (registers the environments and the robots)
+        from robolab_ms.agents import robot_binding
+
+        robot = robot_binding(args.robot).uid
+    config = EvalConfig(tasks=tasks, episodes=args.episodes, instruction=args.instruction, robot=robot,
                         first_seed=args.seed, max_steps=args.max_steps)  # fmt: skip
     out = Path(args.out)
     try:
@@ -134,10 +142,34 @@ def _add_catalog_commands(commands) -> None:
         action.add_argument("--objects", nargs="+", metavar="NAME", help="only these objects (default: all)")
 
 
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from robolab_ms.eval.validate import REPORT_CSV, validate_task, write_report
+    from robolab_ms.tasks.spec import load_task, task_names
+
+    if args.seeds < 1:
+        raise RoboLabError(f"--seeds must be at least 1, got {args.seeds}")
+    if not args.all and not args.task:
+        raise RoboLabError("name the tasks to validate with --task NAME ..., or use --all")
+    tasks = task_names() if args.all else [load_task(task).name for task in args.task]
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for task in tasks:
+        rows.append(validate_task(task, args.seeds, out, args.seed, show_progress=not args.quiet))
+        report = write_report(rows, out)  # after every task: an interrupted run keeps what it checked
+    print(report.read_text(), end="")
+    print(f"report: {report} (and {out / REPORT_CSV}); episodes: {out / 'episodes.jsonl'}")
+    failed = [row.task for row in rows if not row.passed]
+    if failed:
+        print(f"robolab: {len(failed)} task(s) failed validation: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="robolab",
-        description="RoboLab benchmark on ManiSkill3: list tasks and evaluate policies.",
+        description="RoboLab benchmark on ManiSkill3: list tasks, evaluate policies, validate tasks, build and check the object catalog.",
         epilog="Environments are also usable directly: gym.make('RoboLab-<Task>-v1') after importing mani_skill.envs.",
     )
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -158,12 +190,30 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--episodes", type=int, default=10, help="episodes per task (default: 10)")
     evaluate.add_argument("--out", default="results/latest", help="results folder (default: results/latest)")
     evaluate.add_argument("--instruction", default="default", help="instruction variant: default, vague or specific")
+    evaluate.add_argument("--robot", default=None,
+                          help="robot: droid (default; Panda + Robotiq 2F-85), panda or so100")  # fmt: skip
     evaluate.add_argument("--seed", type=int, default=0, help="first episode seed (default: 0)")
     evaluate.add_argument("--max-steps", type=int, default=None,
                           help="cut episodes after this many control steps (default: the task's length)")  # fmt: skip
     evaluate.add_argument("--quiet", action="store_true", help="no progress bar")
     evaluate.set_defaults(run=_cmd_eval)
     _add_catalog_commands(commands)
+
+    validate = commands.add_parser(
+        "validate",
+        help="check tasks: stable at rest, not solved at reset, not solved by chance, solved by the oracle",
+        description="For each task over SEEDS seeds: the largest object drift over 300 physics steps at rest "
+        "(max 2 cm), success right after reset (must be none), the random policy's success rate (max 10%%) and "
+        "the oracle's (min 90%%) with its time per episode. Writes OUT/validation.csv and OUT/validation.md, the "
+        "episodes to OUT/episodes.jsonl (a rerun resumes), and exits with status 1 when a task fails a check.",
+    )
+    validate.add_argument("--task", nargs="+", metavar="TASK", help="task name(s) as in `robolab list`")
+    validate.add_argument("--all", action="store_true", help="validate every task")
+    validate.add_argument("--seeds", type=int, default=10, help="seeds per task (default: 10)")
+    validate.add_argument("--seed", type=int, default=0, help="first seed (default: 0)")
+    validate.add_argument("--out", default="results/validate", help="results folder (default: results/validate)")
+    validate.add_argument("--quiet", action="store_true", help="no progress bars")
+    validate.set_defaults(run=_cmd_validate)
     return parser
 
 

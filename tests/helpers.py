@@ -5,7 +5,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-LAB = Path(__file__).parent / "fixtures" / "PredicateLab.yaml"
+FIXTURES = Path(__file__).parent / "fixtures"
+LAB = FIXTURES / "PredicateLab.yaml"
 
 
 def put(env, name, xyz, quat=(1.0, 0.0, 0.0, 0.0)):

@@ -56,3 +56,11 @@ def test_unknown_task_is_a_one_line_error_with_a_suggestion(tmp_path):
 def test_unknown_policy_is_reported():
     result = run("eval", "--policy", "randm", "--task", "BananaInBowl")
     assert result.returncode == 2 and "Did you mean 'random'?" in result.stderr
+
+
+def test_eval_runs_the_droid_robot_by_default_and_names_an_unknown_one(tmp_path):
+    result = run("eval", "--task", "BananaInBowl", "--episodes", "1", "--max-steps", "3", "--out", str(tmp_path), "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert json.loads((tmp_path / "episodes.jsonl").read_text().splitlines()[0])["robot"] == "droid"
+    result = run("eval", "--task", "BananaInBowl", "--robot", "pandaa", "--out", str(tmp_path))
+    assert result.returncode == 2 and "Did you mean 'panda'" in result.stderr, result.stderr

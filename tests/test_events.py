@@ -42,12 +42,12 @@ def grasp(env, name):
 
 
 def logged(env, kind):
-    return [event for event in env.events.log[0] if event["type"] == kind]
+    return [event for event in env.task_evaluator.events.log[0] if event["type"] == kind]
 
 
 def test_quiet_episode_has_no_events(env):
     assert run(env, steps=10) == set()
-    assert env.events.log[0] == []
+    assert env.task_evaluator.events.log[0] == []
 
 
 def test_grasping_a_non_target(env):

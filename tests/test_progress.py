@@ -61,3 +61,10 @@ def test_groups_of_different_lengths_in_one_stage():
     assert step(tracker, [False, True, False]).item() == 1.0  # group 2 stays done (latched)
     assert tracker.stage_index.item() == 1
 
+
+
+def test_a_steady_scene_gives_a_steady_level():
+    """An earlier condition broke while a later one holds: the group stays at the later one, step after step."""
+    tracker = ProgressTracker([Stage((Group((0, 1, 2), (1.0, 1.0, 1.0)),))], num_envs=1)
+    scores = [step(tracker, [False, True, False]).item() for _ in range(4)]
+    assert scores == [scores[0]] * 4 and abs(scores[0] - 2 / 3) < 1e-6

@@ -31,9 +31,8 @@ from robolab_ms.errors import RoboLabError, UnknownNameError
 from robolab_ms.render_check import NO_DEVICE_HELP
 from robolab_ms.scene.builder import RoboLabSceneBuilder
 from robolab_ms.tasks.context import EvalContext
-from robolab_ms.tasks.events import EventMonitor
-from robolab_ms.tasks.predicates import TABLE, evaluate_condition, per_object
-from robolab_ms.tasks.progress import ProgressTracker
+from robolab_ms.tasks.evaluator import TaskEvaluator
+from robolab_ms.tasks.predicates import TABLE
 from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS, load_task
 
 SIM_HZ = 120
@@ -143,14 +142,7 @@ class RoboLabEnv(BaseEnv):
         self._home_qpos = home.to(self.device)
         actors = {**self.objects, TABLE: self.scene_builder.table}
         self.eval_context = EvalContext(self.scene, actors, entries, fingers, self.device)
-        self._progress_conditions, stages, stage_targets = spec.progress_layout()
-        self.progress_tracker = ProgressTracker(stages, self.num_envs, self.device)
-        contact = list(spec.contact_objects)
-        # row s: which contact objects are targets while stage s runs (the last row, after the end: none)
-        self._stage_targets = torch.tensor(
-            [[name in targets for name in contact] for targets in stage_targets] + [[False] * len(contact)],
-            dtype=torch.bool, device=self.device)  # fmt: skip
-        self.events = EventMonitor(self.eval_context, contact, spec.event_thresholds)
+        self.task_evaluator = TaskEvaluator(spec, self.eval_context)
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict) -> None:
         with torch.device(self.device):
@@ -158,9 +150,7 @@ class RoboLabEnv(BaseEnv):
             count = len(env_idx)
             self.agent.reset(self._home_qpos.repeat(count, 1))
             self.agent.robot.set_pose(Pose.create(self._robot_base_pose()))
-            self.progress_tracker.reset(env_idx)
-            self.eval_context.reset(env_idx)
-            self.events.reset(env_idx)
+            self.task_evaluator.reset(env_idx)
 
     def gripper_closed_fraction(self) -> torch.Tensor:
         """How far the gripper is closed, 0 open to 1 closed: (num_envs,)."""
@@ -191,30 +181,13 @@ class RoboLabEnv(BaseEnv):
     def evaluate(self) -> dict[str, torch.Tensor]:
         """Success (any success condition holds), score in [0, 1], subtask progress and stage, and which events
         fired this step (`event_<type>`), for every environment."""
-        context = self.eval_context
-        context.refresh(self.elapsed_steps)
-        success = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
-        for condition in self.task_spec.success:
-            success |= evaluate_condition(context, condition)
-        holds = torch.cat([per_object(context, c) for c in self._progress_conditions], dim=1)
-        score = self.progress_tracker.update(holds)
-        stage = self.progress_tracker.stage_index
-        targets = self._stage_targets[stage.clamp(max=len(self._stage_targets) - 1)]
-        fired = self.events.update(targets, self.gripper_closed_fraction())
-        return dict(
-            success=success,
-            fail=torch.zeros_like(success),
-            score=torch.where(success, 1.0, score),
-            progress=torch.where(success, 1.0, self.progress_tracker.progress()),
-            stage=stage.clone(),
-            **{f"event_{kind}": flag for kind, flag in fired.items()},
-        )
+        return self.task_evaluator.evaluate(self.elapsed_steps, self.gripper_closed_fraction())
 
     def get_info(self) -> dict[str, Any]:
         info = super().get_info()
         info["task"] = self.task_spec.name
         info["instruction"] = self.instruction
-        info["events"] = self.events.log  # per environment: every event so far, {step, type, object}
+        info["events"] = self.task_evaluator.events.log  # per environment: every event so far, {step, type, object}
         return info
 
     def _get_obs_extra(self, info: dict) -> dict[str, torch.Tensor]:

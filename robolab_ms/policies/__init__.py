@@ -17,10 +17,16 @@ class Policy:
     Attributes:
         name: the name results are filed under.
         needs_images: whether `act` reads camera images (the runner then asks the env for RGB observations).
+        privileged: whether it reads the simulator's true state (the runner then calls `bind(env)` after each
+            environment reset); only reference policies such as the oracle do.
     """
 
     name: str = "policy"
     needs_images: bool = True
+    privileged: bool = False
+
+    def bind(self, env: Any) -> None:
+        """Privileged policies only: the environment whose state `act` may read."""
 
     def reset(self, instruction: str, action_space: spaces.Box, seed: int) -> None:
         """Start an episode with this instruction; `action_space` is the env's unbatched DROID action space."""
@@ -44,7 +50,13 @@ class RandomPolicy(Policy):
         return self.space.sample()
 
 
-POLICIES: dict[str, Callable[[], Policy]] = {"random": RandomPolicy}
+def _oracle() -> Policy:
+    from robolab_ms.policies.oracle import OraclePolicy  # imports the motion planner only when asked for
+
+    return OraclePolicy()
+
+
+POLICIES: dict[str, Callable[[], Policy]] = {"random": RandomPolicy, "oracle": _oracle}
 
 
 def make_policy(name: str) -> Policy:

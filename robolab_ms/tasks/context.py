@@ -3,7 +3,10 @@
 Everything returned has a leading `num_envs` dimension. Poses, contact forces and predicate results are cached
 until `refresh()`, which evaluate() calls once per control step; stateful predicates keep per-episode memory in
 `memory()`, cleared by `reset()`.
-"""
+
+Products of vectors and matrices are written as broadcast multiply-and-sum, never as matmul / einsum: on the CPU
+simulator a BLAS call made right after a physics step waits for PhysX's worker threads to free the cores
+(measured: 0.74 ms instead of 0.02 ms for one batch of quaternion-to-matrix conversions)."""
 
 from __future__ import annotations
 
@@ -48,16 +51,9 @@ class EvalContext:
         self.device = device
         self.num_envs = scene.num_envs
         self._geometry: dict[tuple, torch.Tensor] = {}
-        self._entity_names: dict[Any, str] = {}
-        for name, actor in actors.items():
-            for entity in actor._objs:
-                self._entity_names[entity] = name
         # pairs whose forces have been asked for; the contact pass sums impulses only for these and finger pairs
         self._wanted_pairs: set[tuple[str, str]] = set()
         self._fingers = [f"{GRIPPER}:{index}" for index in range(len(finger_links))]
-        for finger, link in zip(self._fingers, finger_links):
-            for body in link._objs:
-                self._entity_names[body.entity] = finger
         self._step_cache: dict[Any, Any] = {}
         self._memory: dict[Any, torch.Tensor] = {}
         # all tracked bodies are read as one merged view: one pose query and one rotation conversion per step
@@ -66,6 +62,15 @@ class EvalContext:
         from mani_skill.utils.structs import Actor  # not at module level: spec checking must not import ManiSkill
 
         self._view = Actor.merge([actors[name] for name in self.names], name="robolab_ms_eval_view")
+        if not scene.gpu_sim_enabled:  # one environment: read the PhysX bodies directly, the fastest way on CPU
+            import sapien
+
+            self._bodies = [actors[name]._objs[0].find_component_by_type(sapien.physx.PhysxRigidBodyComponent)
+                            for name in self.names]  # fmt: skip
+            self._free_bodies = [body for body in self._bodies if not getattr(body, "kinematic", True)]
+            self._body_names = {body: name for body, name in zip(self._bodies, self.names)}
+            self._finger_bodies = {body: finger for finger, link in zip(self._fingers, finger_links) for body in link._objs}
+            self._body_names.update(self._finger_bodies)
         bounds = np.stack([entries[name].bounds for name in self.names])  # (N, 2, 3)
         self._local_centres = torch.as_tensor(bounds.mean(axis=1), dtype=torch.float32, device=device)
         self.elapsed_steps = torch.zeros(self.num_envs, dtype=torch.long, device=device)
@@ -100,7 +105,12 @@ class EvalContext:
         """Positions (E, N, 3) and rotation matrices (E, N, 3, 3) of every tracked body, in `self.names` order."""
 
         def read():
-            raw = self._view.pose.raw_pose.reshape(len(self.names), self.num_envs, 7).transpose(0, 1)
+            if self.scene.gpu_sim_enabled:
+                raw = self._view.pose.raw_pose.reshape(len(self.names), self.num_envs, 7).transpose(0, 1)
+            else:
+                poses = [body.entity_pose for body in self._bodies]
+                raw = np.concatenate([[pose.p for pose in poses], [pose.q for pose in poses]], axis=1)
+                raw = torch.as_tensor(raw[None], dtype=torch.float32, device=self.device)
             return raw[..., :3], quaternion_to_matrix(raw[..., 3:])
 
         return self.cached("poses", read)
@@ -114,7 +124,7 @@ class EvalContext:
 
         def compute():
             positions, rotations = self.all_poses()
-            return torch.einsum("enij,nj->eni", rotations, self._local_centres) + positions
+            return (rotations * self._local_centres[None, :, None, :]).sum(-1) + positions
 
         return self.cached("centres", compute)
 
@@ -140,11 +150,11 @@ class EvalContext:
 
     def to_world(self, name: str, local: torch.Tensor) -> torch.Tensor:
         """Object-frame points (P, 3) to world points (E, P, 3)."""
-        return torch.einsum("eij,pj->epi", self.rotation(name), local) + self.position(name)[:, None, :]
+        return (self.rotation(name)[:, None] * local[None, :, None, :]).sum(-1) + self.position(name)[:, None, :]
 
     def in_frame(self, points: torch.Tensor, name: str) -> torch.Tensor:
         """World points (E, P, 3) to the frame of object `name`."""
-        return torch.einsum("eji,epj->epi", self.rotation(name), points - self.position(name)[:, None, :])
+        return (self.rotation(name)[:, None] * (points - self.position(name)[:, None, :])[..., None]).sum(-2)
 
     def top_z(self, name: str) -> torch.Tensor:
         """Height of the highest bounding-box corner: (E,)."""
@@ -221,17 +231,31 @@ class EvalContext:
             return self.finger_links[self._fingers.index(name)]
         return self.actors[name]
 
+    def finger_contacts_if_at_rest(self) -> tuple | None:
+        """On the CPU simulator, when PhysX left every tracked object asleep this step: the fingers' contacts as
+        comparable values ((pair, force), ...); otherwise (or on the GPU simulator) None. Two steps with equal
+        values see the same object poses and contacts, so every predicate gives the same answer."""
+        if self.scene.gpu_sim_enabled or not all(body.is_sleeping for body in self._free_bodies):
+            return None
+        contacts = []
+        for contact in self.scene.px.get_contacts():
+            first, second = contact.bodies
+            if first in self._finger_bodies or second in self._finger_bodies:
+                names = (self._body_names.get(first), self._body_names.get(second))
+                contacts.append((names, tuple(tuple(point.impulse) for point in contact.points)))
+        return tuple(sorted(contacts, key=str))
+
     def _cpu_forces(self) -> dict[tuple[str, str], np.ndarray]:
         """Force per pair of named bodies (key sorted; value = force on the first), from one pass over contacts.
         Only pairs with a finger and pairs asked for before are summed: the rest would cost time for nothing."""
         impulses: dict[tuple[str, str], np.ndarray] = {}
-        names, fingers, wanted = self._entity_names, self._fingers, self._wanted_pairs
+        names, fingers, wanted = self._body_names, self._fingers, self._wanted_pairs
         for contact in self.scene.px.get_contacts():
             bodies = contact.bodies
-            a = names.get(bodies[0].entity)
+            a = names.get(bodies[0])
             if a is None:
                 continue
-            b = names.get(bodies[1].entity)
+            b = names.get(bodies[1])
             if b is None or a == b:
                 continue
             if a not in fingers and b not in fingers and ((a, b) if a <= b else (b, a)) not in wanted:
@@ -270,6 +294,7 @@ _QUATERNION_TABLE = _quaternion_products_to_matrix()
 
 
 def quaternion_to_matrix(quaternions: torch.Tensor) -> torch.Tensor:
-    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in (w, x, y, z) order, in three tensor ops."""
+    """Rotation matrices (..., 3, 3) from unit quaternions (..., 4) in (w, x, y, z) order, in a few tensor ops."""
     outer = (quaternions[..., :, None] * quaternions[..., None, :]).reshape(*quaternions.shape[:-1], 16)
-    return (outer @ _QUATERNION_TABLE.to(quaternions.device)).reshape(*quaternions.shape[:-1], 3, 3)
+    products = (outer[..., None] * _QUATERNION_TABLE.to(quaternions.device)).sum(-2)
+    return products.reshape(*quaternions.shape[:-1], 3, 3)

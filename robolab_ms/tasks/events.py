@@ -2,8 +2,8 @@
 
 Each event type is a per-object (or per-gripper) condition evaluated every control step; an event fires on the
 step its condition becomes true and re-arms once the condition clears, so a lasting situation is recorded once.
-Targets are the objects of the current subtask stage; everything else in the task's contact objects is a
-non-target. Thresholds have RoboLab's defaults and can be changed per task (`events:` in the task spec).
+Targets are the objects of the current subtask stage and of the stages before it; everything else in the task's
+contact objects is a non-target. Thresholds have RoboLab's defaults and can be changed per task (`events:` in the task spec).
 """
 
 from __future__ import annotations
@@ -50,6 +50,8 @@ class EventMonitor:
         self.previous_gripper = torch.zeros(self.num_envs, len(GRIPPER_EVENTS), dtype=torch.bool, device=self.device)
         self.log: list[list[dict]] = [[] for _ in range(self.num_envs)]
         self.centre = torch.tensor(SCENE_CENTRE, device=self.device)
+        nothing = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
+        self.nothing_fired = {f"event_{kind}": nothing for kind in EVENT_TYPES}  # what a step without events reports
 
     def reset(self, env_idx: torch.Tensor) -> None:
         """Remember where every object starts, and forget the events of the environments that restart."""
@@ -61,6 +63,11 @@ class EventMonitor:
         for index in env_idx.tolist():
             self.log[index] = []
 
+    def closed_levels(self, closed: torch.Tensor) -> torch.Tensor:
+        """What the events read of the gripper's closed fraction (E,): whether it reaches each threshold, (E, 2)."""
+        limits = self.thresholds
+        return torch.stack([closed >= limits["wrong_grasp_closed"], closed >= limits["fully_closed"]], dim=1)
+
     def _positions_and_ups(self) -> tuple[torch.Tensor, torch.Tensor]:
         return self.ctx.all_centres()[:, self.columns], self.ctx.all_up_axes()[:, self.columns]
 
@@ -68,7 +75,8 @@ class EventMonitor:
         """One control step. `targets`: (E, O) bool, the current stage's objects; `closed`: (E,) gripper closed
         fraction in [0, 1]. Returns, per event type, whether it fired in each environment (E,)."""
         ctx, limits = self.ctx, self.thresholds
-        touching = ctx.gripper_forces(self.objects) > CONTACT_FORCE_N
+        finger_contacts = ctx.gripper_forces([*self.objects, TABLE]) > CONTACT_FORCE_N  # (E, O + 1)
+        touching, touching_table = finger_contacts[:, :-1], finger_contacts[:, -1]
         positions, ups = self._positions_and_ups()
         moved = torch.linalg.norm(positions - self.start_position, dim=-1)
         cos_turned = (ups * self.start_up).sum(-1)
@@ -84,7 +92,7 @@ class EventMonitor:
             cos_turned < math.cos(limits["tip_angle"]),
         ], dim=1)  # fmt: skip
         gripper_now = torch.stack([  # in GRIPPER_EVENTS order, (E, 3)
-            ctx.contact_force(GRIPPER, TABLE) > CONTACT_FORCE_N,
+            touching_table,
             closed >= limits["fully_closed"],
             touching.sum(dim=1) >= 2,
         ], dim=1)  # fmt: skip
@@ -94,9 +102,7 @@ class EventMonitor:
         object_fired, gripper_fired = object_rising.any(dim=-1), gripper_rising
         if bool(object_fired.any() | gripper_fired.any()):
             self._record(object_rising, gripper_rising)
-        fired = {kind: object_fired[:, i] for i, kind in enumerate(OBJECT_EVENTS)}
-        fired.update({kind: gripper_fired[:, i] for i, kind in enumerate(GRIPPER_EVENTS)})
-        return fired
+        return dict(zip(EVENT_TYPES, (*object_fired.unbind(1), *gripper_fired.unbind(1))))
 
     def _record(self, object_rising: torch.Tensor, gripper_rising: torch.Tensor) -> None:
         steps = self.ctx.elapsed_steps.tolist()

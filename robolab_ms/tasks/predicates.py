@@ -106,7 +106,7 @@ def _inside_hull(ctx: EvalContext, objects: list[str], container: str, tolerance
     planes = ctx.container_planes(container, open_top)  # (P, 4), container frame
     centres = torch.stack([ctx.centre(name) for name in objects], dim=1)  # (E, O, 3)
     local = ctx.in_frame(centres, container)
-    return (local @ planes[:, :3].T + planes[:, 3] <= tolerance).all(dim=-1)
+    return ((local[..., None, :] * planes[:, :3]).sum(-1) + planes[:, 3] <= tolerance).all(dim=-1)
 
 
 @predicate("in_container", references={"container": None}, tolerance=0.0)
@@ -216,7 +216,7 @@ def _direction(axis: tuple[float, float]):
         def one(name: str) -> torch.Tensor:
             offset = ctx.centre(name) - ctx.centre(reference)
             planar = torch.linalg.norm(offset[:, :2], dim=-1)
-            aligned = (offset[:, :2] @ towards) >= cosine * planar
+            aligned = (offset[:, :2] * towards).sum(-1) >= cosine * planar
             return aligned & (planar > 1e-6) & (offset[:, 2].abs() <= max_dz)
 
         return _each(objects, one)

@@ -3,9 +3,12 @@
 A task's subtasks are stages run strictly in order. A stage holds parallel groups (usually one per target object);
 a group is an ordered list of conditions with weights, e.g. [grasped: 0, in the bowl and released: 1]. Every step,
 for every environment at once:
-- a group jumps ahead to its furthest condition that holds now;
-- otherwise, if a condition it had completed no longer holds, it falls back to the earliest such one;
+- a group moves to its furthest condition that holds now: ahead of where it was, that is a jump; behind it (its
+  current condition broke), a fall-back; to 0 when none holds;
 - a group that completed its last condition stays completed (latched).
+RoboLab states the fall-back as "to the earliest completed condition that no longer holds". Read literally, a group
+whose first condition broke while a later one still holds (grasped no longer, but lifted) would fall to 0 and jump
+back the next step, forever; here the furthest holding condition decides, so a steady scene gives a steady score.
 A group's score is the weight of its completed conditions over its total weight. A stage's score is the mean of its
 group scores (`all`), their maximum (`any`) or the mean of the best K (`choose`). The stage is done when all groups
 (`all`), one (`any`) or at least K (`choose`) are complete; then the next stage starts. The episode score is the
@@ -118,12 +121,8 @@ def _combine(complete: torch.Tensor, logical: str, k: int) -> torch.Tensor:
 
 
 def _step_groups(levels: torch.Tensor, holds: torch.Tensor, table: _StageTables) -> torch.Tensor:
-    """One step of every group of a stage, all environments at once: jump ahead to the furthest condition that
-    holds, else fall back to the earliest completed one that broke; finished groups stay finished.
-    levels: (E, G); holds: (E, G, C) with padding False."""
-    positions = table.positions
-    furthest = (holds * positions).amax(dim=-1)  # 0 when nothing holds
-    broken = (positions <= levels[..., None]) & ~holds
-    first_broken = torch.where(broken, positions - 1, table.width).amin(dim=-1)
-    stepped = torch.where(furthest > levels, furthest, torch.minimum(levels, first_broken))
-    return torch.where(levels >= table.lengths, levels, stepped)
+    """One step of every group of a stage, all environments at once: a group stands at its furthest condition that
+    holds now (ahead of where it was: a jump; behind it: a fall-back, 0 when none holds); finished groups stay
+    finished. levels: (E, G); holds: (E, G, C) with padding False."""
+    furthest = (holds * table.positions).amax(dim=-1)
+    return torch.where(levels >= table.lengths, levels, furthest)

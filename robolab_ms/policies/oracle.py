@@ -1,0 +1,287 @@
+"""The oracle: a privileged policy that solves tasks from the simulator's true state with a motion planner.
+
+It reads the task's success condition and the true object poses, turns them into pick-and-place jobs (which
+object, where to put it), plans each move with mplib (straight-line screw motions, RRT-Connect when a straight
+line fails) and replays the plan as the same 8-D DROID actions a learned policy sends: 7 absolute joint targets
+and the gripper (0 open, 1 closed) at the control rate. It plans one move at a time from the state it finds, so a
+slipped grasp is noticed at the next move. When it cannot go on it raises OracleFailure saying why.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from gymnasium import spaces
+
+from robolab_ms.errors import RoboLabError
+from robolab_ms.policies import Policy
+
+if TYPE_CHECKING:
+    from robolab_ms.envs.robolab_env import RoboLabEnv
+
+APPROACH_HEIGHT = 0.10  # m above the grasp, and above the place point, where straight moves start and end
+LIFT_HEIGHT = 0.15  # m an object is lifted before it travels
+RELEASE_CLEARANCE = 0.03  # m between the held object's bottom and the place surface when the gripper opens
+GRIPPER_STEPS = 8  # control steps to close or open the gripper (about half a second)
+SETTLE_STEPS = 3  # control steps held at the end of every move, for the PD controller to catch up
+GRASP_DEPTH = 0.03  # m below an object's top where the TCP (the middle of the finger pads) closes ...
+FINGERTIP_CLEARANCE = 0.025  # ... but at least this high above its bottom, so the fingertips stay off the table
+IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
+PANDA_ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
+FLANGE_LINK = "panda_link8"
+PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
+PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
+
+
+class OracleFailure(RoboLabError):
+    """The oracle cannot solve this episode; the message says why."""
+
+
+@dataclass(frozen=True)
+class Job:
+    """Move one object: onto or into the object `onto`, or onto the table at `at` (x, y), or up by `lift` metres."""
+
+    obj: str
+    onto: str | None = None
+    at: tuple[float, float] | None = None
+    lift: float = 0.0
+
+
+SIDE_OFFSET = 0.15  # m from a reference's centre to where an object is put beside it (left of, behind, ...)
+DIRECTIONS = {"left_of": (0.0, 1.0), "right_of": (0.0, -1.0), "in_front_of": (-1.0, 0.0), "behind": (1.0, 0.0)}
+TABLE_SAFE_X, TABLE_SAFE_Y = (0.30, 0.75), (-0.40, 0.40)  # where the oracle may put things down (robot frame, m)
+
+
+def jobs_for(env: RoboLabEnv) -> list[Job]:
+    """The pick-and-place jobs that satisfy the task's first success condition."""
+    condition = env.task_spec.success[0]
+    objects = list(condition.objects)
+    if condition.logical == "any":
+        objects = objects[:1]
+    elif condition.logical == "choose":
+        objects = objects[: condition.k]
+    predicate, references, params = condition.predicate, condition.references, condition.params
+    if predicate in ("in_container", "enclosed", "on_top", "on_center", "placed_in_container_in_order"):
+        reference = next(iter(references.values()))
+        return [Job(name, onto=reference) for name in objects]
+    if predicate == "groups_in_containers":
+        home = {name: container for container, members in params["groups"].items() for name in members}
+        return [Job(name, onto=home[name]) for name in objects]
+    if predicate == "stacked":
+        order = objects[::-1] if params.get("order") == "top_to_bottom" else objects
+        return [Job(upper, onto=lower) for lower, upper in zip(order, order[1:])]
+    if predicate == "picked_up":
+        return [Job(name, lift=params.get("distance", 0.05) + 0.05) for name in objects[:1]]
+    if predicate in DIRECTIONS or predicate == "next_to":
+        reference = references["reference"]
+        dx, dy = DIRECTIONS.get(predicate, (0.0, 1.0))
+        centre = _centre(env, reference)
+        return [Job(name, at=(centre[0] + dx * SIDE_OFFSET, centre[1] + dy * SIDE_OFFSET)) for name in objects[:1]]
+    if predicate in ("outside_of", "outside_of_and_on_surface"):
+        return [Job(name, at=free_spot(env, avoid=objects)) for name in objects]
+    raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
+
+
+class OraclePolicy(Policy):
+    """Solves tasks from privileged simulator state; the upper-bound row of a results table."""
+
+    name = "oracle"
+    needs_images = False
+    privileged = True
+
+    def __init__(self) -> None:
+        self.env: RoboLabEnv | None = None
+        self._planner = None
+        self._planner_robot: str | None = None
+        self.actions: deque[np.ndarray] = deque()
+
+    def bind(self, env: Any) -> None:
+        """Give the oracle the environment whose true state it reads (the unwrapped RoboLabEnv)."""
+        self.env = env.unwrapped
+        robot = self.env.robot_uids
+        if self._planner_robot != robot:
+            self._planner, self._planner_robot = _make_planner(self.env), robot
+        flange = self.env.agent.robot.links_map[FLANGE_LINK].pose
+        self._tcp_in_flange = (flange.inv() * self.env.tcp_pose()).sp  # fixed: the hand is rigid on the flange
+
+    def reset(self, instruction: str, action_space: spaces.Box, seed: int) -> None:
+        if self.env is None:
+            raise OracleFailure("the oracle reads the simulator: call bind(env) before reset()")
+        self.jobs = deque(jobs_for(self.env))
+        self.actions.clear()
+        self.gripper = 0.0
+
+    def act(self, observation: dict[str, Any]) -> np.ndarray:
+        while not self.actions:
+            if not self.jobs:  # everything done: hold still with the gripper open
+                return self._action(self._planner_qpos(), 0.0)
+            self._plan_job(self.jobs.popleft())
+        return self.actions.popleft()
+
+    # ------------------------------------------------------------------------------------------------ planning
+    def _plan_job(self, job: Job) -> None:
+        env = self.env
+        grasp = grasp_pose(env, job.obj)
+        qpos = self._planner_qpos()
+        qpos = self._move(qpos, _raised(grasp, APPROACH_HEIGHT), f"reach above '{job.obj}'", straight=False)
+        qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
+        self._hold(qpos, 1.0, GRIPPER_STEPS)
+        held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
+        if job.onto is None and job.at is None:
+            self._move(qpos, _raised(grasp, job.lift), f"lift '{job.obj}'")
+            return
+        qpos = self._move(qpos, _raised(grasp, LIFT_HEIGHT), f"lift '{job.obj}'")
+        where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
+        place = place_pose(env, job, grasp, held_bottom)
+        qpos = self._move(qpos, _raised(place, APPROACH_HEIGHT), f"carry '{job.obj}' over {where}", straight=False)
+        qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
+        self._hold(qpos, 0.0, GRIPPER_STEPS)
+        self._move(qpos, _raised(place, APPROACH_HEIGHT), f"retreat from {where}")
+
+    def _move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
+        """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints."""
+        planner, step = self._planner, 1.0 / self.env.control_freq
+        pose = self._flange_target(pose)
+        result = planner.plan_screw(pose, qpos, time_step=step) if straight else {"status": "not tried"}
+        if result["status"] != "Success":
+            result = planner.plan_qpos_to_pose(pose, qpos, time_step=step, planning_time=2.0)
+        if result["status"] != "Success" and "IK" in result["status"]:  # near the edge of the workspace: try harder
+            status, goals = planner.IK(pose, qpos, n_init_qpos=IK_RETRIES)
+            if status == "Success":
+                result = planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=2.0)
+        if result["status"] != "Success":
+            raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
+        final = qpos.copy()
+        for joints in result["position"]:
+            final[planner.move_group_joint_indices] = joints
+            self.actions.append(self._action(final, self.gripper))
+        self._hold(final, self.gripper, SETTLE_STEPS)
+        return final
+
+    def _flange_target(self, tcp_pose: np.ndarray) -> np.ndarray:
+        """The flange pose [x, y, z, qw, qx, qy, qz] that puts the TCP at `tcp_pose`."""
+        import sapien
+
+        flange = sapien.Pose(p=tcp_pose[:3], q=tcp_pose[3:]) * self._tcp_in_flange.inv()
+        return np.concatenate([flange.p, flange.q])
+
+    def _hold(self, qpos: np.ndarray, gripper: float, steps: int) -> None:
+        self.gripper = gripper
+        for _ in range(steps):
+            self.actions.append(self._action(qpos, gripper))
+
+    def _action(self, qpos: np.ndarray, gripper: float) -> np.ndarray:
+        """The env's 8-D action from a planning-model joint vector: 7 arm joint targets, then the gripper."""
+        return np.concatenate([qpos[:7], [gripper]]).astype(np.float32)
+
+    def _planner_qpos(self) -> np.ndarray:
+        """The planning model's joints (the Panda arm's 7, then its 2 fingers, kept open) from the robot's state."""
+        arm = self.env.arm_qpos()[0].cpu().numpy().astype(np.float64)
+        return np.concatenate([arm, [0.04, 0.04]])
+
+
+def _make_planner(env: RoboLabEnv):
+    """An mplib planner for the robot's arm. Every supported robot has a Panda arm, so the planner uses ManiSkill's
+    Panda model (with its collision pairs) and moves the flange, panda_link8; the hand on the flange differs per
+    robot and is accounted for by the flange-to-TCP transform read from the robot (see OraclePolicy.bind)."""
+    import mplib
+    from mani_skill import PACKAGE_ASSET_DIR
+
+    if tuple(env.robot.arm_joints) != PANDA_ARM_JOINTS:
+        raise OracleFailure(f"the oracle plans for Panda arms (droid, panda); robot '{env.robot_uids}' has another arm")
+    model = Path(PACKAGE_ASSET_DIR) / "robots" / "panda" / "panda_v2.urdf"
+    return mplib.Planner(
+        urdf=str(model),
+        srdf=str(model.with_suffix(".srdf")),
+        move_group=FLANGE_LINK,
+        joint_vel_limits=np.full(7, PLANNING_JOINT_SPEED),
+        joint_acc_limits=np.full(7, PLANNING_JOINT_ACCELERATION),
+    )
+
+
+# ------------------------------------------------------------------------------------------------ geometry
+def _world_points(env: RoboLabEnv, name: str) -> np.ndarray:
+    """The object's collision surface points in the world (N, 3)."""
+    ctx = env.eval_context
+    local = env.eval_context.entries[name].points
+    rotation = ctx.rotation(name)[0].cpu().numpy()
+    return local @ rotation.T + ctx.position(name)[0].cpu().numpy()
+
+
+def object_bottom(env: RoboLabEnv, name: str) -> float:
+    return float(_world_points(env, name)[:, 2].min())
+
+
+def grasp_pose(env: RoboLabEnv, name: str) -> np.ndarray:
+    """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP: fingers close across the object's narrowest
+    horizontal direction, a little below its top and clear of the table."""
+    env.eval_context.refresh()
+    points = _world_points(env, name)
+    centre = (points.max(axis=0) + points.min(axis=0)) / 2
+    xy = points[:, :2] - points[:, :2].mean(axis=0)
+    _, vectors = np.linalg.eigh(xy.T @ xy)
+    narrow = vectors[:, 0]  # the direction of least spread: the fingers close along it
+    top, bottom = points[:, 2].max(), points[:, 2].min()
+    z = max(top - GRASP_DEPTH, bottom + FINGERTIP_CLEARANCE)
+    return np.concatenate([[centre[0], centre[1], z], _down_quaternion(narrow)])
+
+
+def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float) -> np.ndarray:
+    """Where the TCP goes to release the held object: centred over `job.onto` with the object's bottom just above
+    its top (a container's rim must be cleared on the way down), or just above the table at `job.at`."""
+    if job.onto is not None:
+        points = _world_points(env, job.onto)
+        x, y = (points[:, :2].max(axis=0) + points[:, :2].min(axis=0)) / 2
+        top = points[:, 2].max()
+    else:
+        (x, y), top = job.at, 0.0
+    return np.concatenate([[x, y, top + RELEASE_CLEARANCE + held_bottom], grasp[3:]])
+
+
+def _centre(env: RoboLabEnv, name: str) -> np.ndarray:
+    env.eval_context.refresh()
+    points = _world_points(env, name)
+    return (points.max(axis=0) + points.min(axis=0)) / 2
+
+
+def free_spot(env: RoboLabEnv, avoid: list[str], clearance: float = 0.12) -> tuple[float, float]:
+    """A table point at least `clearance` from every other object's centre, nearest the middle of the safe area."""
+    others = np.array([_centre(env, name)[:2] for name in env.objects if name not in avoid]).reshape(-1, 2)
+    xs, ys = np.meshgrid(np.linspace(*TABLE_SAFE_X, 19), np.linspace(*TABLE_SAFE_Y, 33))
+    spots = np.stack([xs.ravel(), ys.ravel()], axis=1)
+    gaps = np.linalg.norm(spots[:, None] - others[None], axis=-1).min(axis=1) if len(others) else np.full(len(spots), 1.0)
+    ok = spots[gaps >= clearance]
+    if not len(ok):
+        raise OracleFailure(f"no free spot on the table {clearance:.2f} m away from the other objects")
+    middle = np.array([np.mean(TABLE_SAFE_X), np.mean(TABLE_SAFE_Y)])
+    x, y = ok[np.linalg.norm(ok - middle, axis=1).argmin()]
+    return float(x), float(y)
+
+
+def _raised(pose: np.ndarray, height: float) -> np.ndarray:
+    raised = pose.copy()
+    raised[2] += height
+    return raised
+
+
+def _down_quaternion(closing_direction: np.ndarray) -> np.ndarray:
+    """Quaternion (w, x, y, z) of a TCP pointing down (its z = world -z) with its y axis (the fingers' closing
+    direction) along `closing_direction` in the table plane; of the two, the yaw nearest the robot's forward."""
+    y = np.array([closing_direction[0], closing_direction[1], 0.0])
+    y /= np.linalg.norm(y)
+    z = np.array([0.0, 0.0, -1.0])
+    x = np.cross(y, z)
+    if x[0] < 0:  # keep the hand's x pointing away from the robot: the wrist does not have to turn around
+        x, y = -x, -y
+    return _matrix_to_quaternion(np.stack([x, y, z], axis=1))
+
+
+def _matrix_to_quaternion(rotation: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(rotation).as_quat()
+    return np.array([w, x, y, z])
