@@ -15,7 +15,6 @@ from pathlib import Path
 
 from robolab_ms.catalog import COLOR_NAMES, Catalog, load_catalog
 from robolab_ms.content import Fields, content_dir, load_yaml
-from robolab_ms.scene.backgrounds import load_looks
 from robolab_ms.errors import UnknownNameError
 
 TABLE_CENTER_XY = (0.55, 0.0)
@@ -57,6 +56,8 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
     catalog = catalog or load_catalog()
     fields = Fields(load_yaml(file), file)
     fields.only(["name", "description", "table", "objects", "jitter", "background"])
+    from robolab_ms.scene.backgrounds import load_looks  # here: `python -m robolab_ms.scene.backgrounds` stays clean
+
     looks = load_looks()
     background = fields.get("background", str, None)
     if background is not None:
