@@ -43,12 +43,14 @@ class OracleFailure(RoboLabError):
 
 @dataclass(frozen=True)
 class Job:
-    """Move one object: onto or into the object `onto`, or onto the table at `at` (x, y), or up by `lift` metres."""
+    """Move one object: onto or into the object `onto`, onto the table at `at` (x, y), up by `lift` metres, or
+    stand it upright where it lies (`upright`)."""
 
     obj: str
     onto: str | None = None
     at: tuple[float, float] | None = None
     lift: float = 0.0
+    upright: bool = False
 
 
 SIDE_OFFSET = 0.15  # m from a reference's centre to where an object is put beside it (left of, behind, ...)
@@ -81,6 +83,9 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
         dx, dy = DIRECTIONS.get(predicate, (0.0, 1.0))
         centre = _centre(env, reference)
         return [Job(name, at=(centre[0] + dx * SIDE_OFFSET, centre[1] + dy * SIDE_OFFSET)) for name in objects[:1]]
+    if predicate == "upright":
+        tolerance = params.get("tolerance", 0.1)
+        return [Job(name, upright=True) for name in objects if _tilt(env, name) > tolerance]
     if predicate in ("outside_of", "outside_of_and_on_surface"):
         return [Job(name, at=free_spot(env, avoid=objects)) for name in objects]
     raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
@@ -125,6 +130,9 @@ class OraclePolicy(Policy):
     # ------------------------------------------------------------------------------------------------ planning
     def _plan_job(self, job: Job) -> None:
         env = self.env
+        if job.upright:
+            self._plan_reorientation(job.obj)
+            return
         grasp = grasp_pose(env, job.obj)
         qpos = self._planner_qpos()
         qpos = self._move(qpos, _raised(grasp, APPROACH_HEIGHT), f"reach above '{job.obj}'", straight=False)
@@ -141,6 +149,44 @@ class OraclePolicy(Policy):
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
         self._move(qpos, _raised(place, APPROACH_HEIGHT), f"retreat from {where}")
+
+    def _plan_reorientation(self, name: str) -> None:
+        """Stand a lying object up: grasp it from above across its body, lift it, turn the hand so the object's up
+        axis points up (the hand then points away from the robot), set it down beside where it lay, back off."""
+        env = self.env
+        up = env.eval_context.up_axis(name)[0].cpu().numpy().astype(np.float64)
+        flat = np.array([up[0], up[1], 0.0])
+        if np.linalg.norm(flat) < 1e-3:
+            raise OracleFailure(f"'{name}' is upside down: turning it over is not supported")
+        flat /= np.linalg.norm(flat)
+        closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
+        grasp = grasp_pose(env, name, closing=closing)
+        qpos = self._planner_qpos()
+        qpos = self._move(qpos, _raised(grasp, APPROACH_HEIGHT), f"reach above '{name}'", straight=False)
+        qpos = self._move(qpos, grasp, f"descend to '{name}'")
+        self._hold(qpos, 1.0, GRIPPER_STEPS)
+        lifted = _raised(grasp, LIFT_HEIGHT)
+        qpos = self._move(qpos, lifted, f"lift '{name}'")
+        # where the hand must be for the object to stand: tip about the closing axis (its up axis to world z),
+        # then turn about world z so the hand points away from the robot
+        tip = _rotation_between(up, np.array([0.0, 0.0, 1.0]))
+        outward = np.array([grasp[0], grasp[1], 0.0]) / np.linalg.norm(grasp[:2])
+        hand_axis = tip @ _quaternion_to_matrix(grasp[3:])[:, 2]  # the fingers' direction after tipping
+        turn = _rotation_between(np.array([hand_axis[0], hand_axis[1], 0.0]), outward)
+        final_rotation = turn @ tip @ _quaternion_to_matrix(grasp[3:])
+        object_in_hand = _world_points(env, name) - grasp[:3]  # object points relative to the TCP, world frame
+        object_in_hand = object_in_hand @ (turn @ tip).T
+        centre = (object_in_hand.max(axis=0) + object_in_hand.min(axis=0)) / 2
+        target_xy = grasp[:2] - centre[:2]  # the object's centre ends where the grasp point was
+        z = RELEASE_CLEARANCE - object_in_hand[:, 2].min()
+        stand = np.concatenate([[target_xy[0], target_xy[1], z], _matrix_to_quaternion(final_rotation)])
+        qpos = self._move(qpos, _raised(stand, APPROACH_HEIGHT), f"turn '{name}' upright", straight=False)
+        qpos = self._move(qpos, stand, f"set '{name}' down upright")
+        self._hold(qpos, 0.0, GRIPPER_STEPS)
+        back = stand.copy()
+        back[:3] -= final_rotation[:, 2] * APPROACH_HEIGHT  # straight back along the fingers, then up
+        qpos = self._move(qpos, back, f"back off from '{name}'")
+        self._move(qpos, _raised(back, APPROACH_HEIGHT), f"raise the hand above '{name}'")
 
     def _move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
         """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints."""
@@ -216,15 +262,17 @@ def object_bottom(env: RoboLabEnv, name: str) -> float:
     return float(_world_points(env, name)[:, 2].min())
 
 
-def grasp_pose(env: RoboLabEnv, name: str) -> np.ndarray:
-    """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP: fingers close across the object's narrowest
-    horizontal direction, a little below its top and clear of the table."""
+def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None) -> np.ndarray:
+    """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP: fingers close along `closing` (default: across the
+    object's narrowest horizontal direction), a little below its top and clear of the table."""
     env.eval_context.refresh()
     points = _world_points(env, name)
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
-    xy = points[:, :2] - points[:, :2].mean(axis=0)
-    _, vectors = np.linalg.eigh(xy.T @ xy)
-    narrow = vectors[:, 0]  # the direction of least spread: the fingers close along it
+    if closing is None:
+        xy = points[:, :2] - points[:, :2].mean(axis=0)
+        _, vectors = np.linalg.eigh(xy.T @ xy)
+        closing = vectors[:, 0]  # the direction of least spread: the fingers close along it
+    narrow = closing
     top, bottom = points[:, 2].max(), points[:, 2].min()
     z = max(top - GRASP_DEPTH, bottom + FINGERTIP_CLEARANCE)
     return np.concatenate([[centre[0], centre[1], z], _down_quaternion(narrow)])
@@ -285,3 +333,32 @@ def _matrix_to_quaternion(rotation: np.ndarray) -> np.ndarray:
 
     x, y, z, w = Rotation.from_matrix(rotation).as_quat()
     return np.array([w, x, y, z])
+
+
+def _tilt(env: RoboLabEnv, name: str) -> float:
+    """Angle (rad) between the object's up axis and world z."""
+    env.eval_context.refresh()
+    return float(np.arccos(np.clip(env.eval_context.up_axis(name)[0, 2].item(), -1.0, 1.0)))
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation matrix that turns direction `a` into direction `b`."""
+    from scipy.spatial.transform import Rotation
+
+    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+    axis = np.cross(a, b)
+    sine, cosine = np.linalg.norm(axis), float(np.dot(a, b))
+    if sine < 1e-9:
+        if cosine > 0:
+            return np.eye(3)
+        other = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        axis = np.cross(a, other)
+        return Rotation.from_rotvec(axis / np.linalg.norm(axis) * np.pi).as_matrix()
+    return Rotation.from_rotvec(axis / sine * np.arctan2(sine, cosine)).as_matrix()
+
+
+def _quaternion_to_matrix(quaternion: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    w, x, y, z = quaternion
+    return Rotation.from_quat([x, y, z, w]).as_matrix()
