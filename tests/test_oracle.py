@@ -51,14 +51,38 @@ def test_oracle_stacks_in_the_given_order():
     from robolab_ms.envs import RoboLabEnv
 
     env = RoboLabEnv(task=str(FIXTURES / "StackThree.yaml"), obs_mode="state_dict", render_backend="cpu")
-    oracle = make_policy("oracle")
-    observation, info = env.reset(seed=0)
-    oracle.bind(env)
-    oracle.reset(env.instruction, env.single_action_space, 0)
-    for _ in range(600):
-        observation, _, terminated, _, info = env.step(oracle.act(observation))
-        if bool(terminated[0]):
-            break
+    env.reset(seed=0)
+    info = run_oracle(env, 600)
     heights = [float(env.objects[name].pose.p[0, 2]) for name in ("red", "green", "blue")]
     env.close()
     assert bool(info["success"][0]) and heights == sorted(heights), heights
+
+
+def run_oracle(env, steps: int) -> dict:
+    oracle = make_policy("oracle")
+    observation, info = None, {}
+    oracle.bind(env)
+    oracle.reset(env.instruction, env.single_action_space, 0)
+    for _ in range(steps):
+        observation, _, terminated, _, info = env.step(oracle.act(observation))
+        if bool(terminated[0]):
+            break
+    return info
+
+
+def test_oracle_stands_a_lying_block_upright():
+    from helpers import FIXTURES, hold_arm_action
+
+    from robolab_ms.envs import RoboLabEnv
+
+    env = RoboLabEnv(task=str(FIXTURES / "UprightBlock.yaml"), obs_mode="state_dict", render_backend="cpu")
+    env.reset(seed=0)
+    lying = (0.0, 0.0, -0.7071068, 0.7071068)  # 90 degrees about x, then 180 about z: its top faces +y
+    put(env, "red", (0.5, -0.1, 0.026), lying)
+    for _ in range(5):
+        env.step(hold_arm_action(env, 0.0))
+    assert not bool(env.evaluate()["success"][0])
+    info = run_oracle(env, 300)
+    up = env.eval_context.up_axis("red")[0]
+    env.close()
+    assert bool(info["success"][0]) and float(up[2]) > 0.99, up

@@ -28,6 +28,7 @@ LIFT_HEIGHT = 0.15  # m an object is lifted before it travels
 RELEASE_CLEARANCE = 0.03  # m between the held object's bottom and the place surface when the gripper opens
 GRIPPER_STEPS = 8  # control steps to close or open the gripper (about half a second)
 SETTLE_STEPS = 3  # control steps held at the end of every move, for the PD controller to catch up
+BACK_OFF = 0.06  # m the hand backs away (and rises) after setting an object down upright
 GRASP_DEPTH = 0.03  # m below an object's top where the TCP (the middle of the finger pads) closes ...
 FINGERTIP_CLEARANCE = 0.025  # ... but at least this high above its bottom, so the fingertips stay off the table
 IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
@@ -160,7 +161,17 @@ class OraclePolicy(Policy):
             raise OracleFailure(f"'{name}' is upside down: turning it over is not supported")
         flat /= np.linalg.norm(flat)
         closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
-        grasp = grasp_pose(env, name, closing=closing)
+        planned = len(self.actions)
+        try:  # the hand can hold the object two ways round; near joint limits only one of them can be planned
+            self._plan_reorientation_holding(name, up, closing)
+        except OracleFailure:
+            while len(self.actions) > planned:
+                self.actions.pop()
+            self._plan_reorientation_holding(name, up, -closing)
+
+    def _plan_reorientation_holding(self, name: str, up: np.ndarray, closing: np.ndarray) -> None:
+        env = self.env
+        grasp = grasp_pose(env, name, closing=closing, keep_sign=True)
         qpos = self._planner_qpos()
         qpos = self._move(qpos, _raised(grasp, APPROACH_HEIGHT), f"reach above '{name}'", straight=False)
         qpos = self._move(qpos, grasp, f"descend to '{name}'")
@@ -184,7 +195,7 @@ class OraclePolicy(Policy):
         qpos = self._move(qpos, stand, f"set '{name}' down upright")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
         back = stand.copy()
-        back[:3] -= final_rotation[:, 2] * APPROACH_HEIGHT  # straight back along the fingers, then up
+        back[:3] += -final_rotation[:, 2] * BACK_OFF + np.array([0.0, 0.0, BACK_OFF])  # back along the fingers and up
         qpos = self._move(qpos, back, f"back off from '{name}'")
         self._move(qpos, _raised(back, APPROACH_HEIGHT), f"raise the hand above '{name}'")
 
@@ -262,7 +273,7 @@ def object_bottom(env: RoboLabEnv, name: str) -> float:
     return float(_world_points(env, name)[:, 2].min())
 
 
-def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None) -> np.ndarray:
+def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, keep_sign: bool = False) -> np.ndarray:
     """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP: fingers close along `closing` (default: across the
     object's narrowest horizontal direction), a little below its top and clear of the table."""
     env.eval_context.refresh()
@@ -275,7 +286,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None) ->
     narrow = closing
     top, bottom = points[:, 2].max(), points[:, 2].min()
     z = max(top - GRASP_DEPTH, bottom + FINGERTIP_CLEARANCE)
-    return np.concatenate([[centre[0], centre[1], z], _down_quaternion(narrow)])
+    return np.concatenate([[centre[0], centre[1], z], _down_quaternion(narrow, keep_sign)])
 
 
 def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float) -> np.ndarray:
@@ -316,14 +327,15 @@ def _raised(pose: np.ndarray, height: float) -> np.ndarray:
     return raised
 
 
-def _down_quaternion(closing_direction: np.ndarray) -> np.ndarray:
+def _down_quaternion(closing_direction: np.ndarray, keep_sign: bool = False) -> np.ndarray:
     """Quaternion (w, x, y, z) of a TCP pointing down (its z = world -z) with its y axis (the fingers' closing
-    direction) along `closing_direction` in the table plane; of the two, the yaw nearest the robot's forward."""
+    direction) along `closing_direction` in the table plane; unless `keep_sign`, of the two ways round the one
+    whose x axis points away from the robot."""
     y = np.array([closing_direction[0], closing_direction[1], 0.0])
     y /= np.linalg.norm(y)
     z = np.array([0.0, 0.0, -1.0])
     x = np.cross(y, z)
-    if x[0] < 0:  # keep the hand's x pointing away from the robot: the wrist does not have to turn around
+    if x[0] < 0 and not keep_sign:  # the hand's x away from the robot: the wrist does not have to turn around
         x, y = -x, -y
     return _matrix_to_quaternion(np.stack([x, y, z], axis=1))
 
