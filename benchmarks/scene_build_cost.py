@@ -16,41 +16,9 @@ import argparse
 import time
 
 import mani_skill.envs  # noqa: F401  (ManiSkill's registry first)
-import sapien
-import torch
-from mani_skill.envs.sapien_env import BaseEnv
 
-from robolab_ms.catalog import load_catalog
 from robolab_ms.scene import SceneSpec, load_scene
-from robolab_ms.scene.builder import RoboLabSceneBuilder
-
-
-class SceneOnlyEnv(BaseEnv):
-    """An environment with ManiSkill's Panda that builds one scene file (swappable before a reconfigure)."""
-
-    def __init__(self, scene: SceneSpec, **kwargs) -> None:
-        self.scene_spec = scene
-        super().__init__(robot_uids="panda", obs_mode="state_dict", render_mode=None, **kwargs)
-
-    @property
-    def _default_sensor_configs(self):
-        return []
-
-    def _load_agent(self, options: dict) -> None:
-        super()._load_agent(options, sapien.Pose())
-
-    def _load_scene(self, options: dict) -> None:
-        self.builder = RoboLabSceneBuilder(self, self.scene_spec, load_catalog())
-        self.builder.build()
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict) -> None:
-        self.builder.initialize(env_idx)
-
-    def evaluate(self) -> dict:
-        return {}
-
-    def _get_obs_extra(self, info: dict) -> dict:
-        return {}
+from robolab_ms.scene.scene_env import SceneOnlyEnv
 
 
 def timed_rebuild(env: SceneOnlyEnv, scene: SceneSpec) -> float:

@@ -4,14 +4,11 @@ from __future__ import annotations
 
 import pytest
 import sapien
-import torch
-from mani_skill.envs.sapien_env import BaseEnv
 
-from robolab_ms.catalog import load_catalog
 from robolab_ms.errors import SpecError
 from robolab_ms.scene import load_scene, read_scene
 from robolab_ms.scene.backgrounds import load_looks
-from robolab_ms.scene.builder import RoboLabSceneBuilder
+from robolab_ms.scene.scene_env import SceneOnlyEnv
 
 
 def test_backgrounds_and_table_materials_are_installed_with_licences():
@@ -34,33 +31,8 @@ def test_unknown_background_is_explained(tmp_path):
         read_scene(file)
 
 
-class _SceneEnv(BaseEnv):
-    def __init__(self, **kwargs) -> None:
-        super().__init__(robot_uids="panda", obs_mode="state_dict", reward_mode="none", **kwargs)
-
-    @property
-    def _default_sensor_configs(self):
-        return []
-
-    def _load_agent(self, options: dict) -> None:
-        super()._load_agent(options, sapien.Pose())
-
-    def _load_scene(self, options: dict) -> None:
-        self.builder = RoboLabSceneBuilder(self, load_scene("kitchen_table"), load_catalog())
-        self.builder.build()
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict) -> None:
-        self.builder.initialize(env_idx)
-
-    def evaluate(self) -> dict:
-        return {}
-
-    def _get_obs_extra(self, info: dict) -> dict:
-        return {}
-
-
 def test_builder_applies_background_and_texture_and_objects_settle():
-    env = _SceneEnv()
+    env = SceneOnlyEnv(load_scene("kitchen_table"))
     try:
         env.reset(seed=0)
         sub_scene = env.scene.sub_scenes[0]
