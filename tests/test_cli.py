@@ -49,7 +49,7 @@ def test_eval_writes_episodes_and_summary_and_resumes(tmp_path):
 def test_unknown_task_is_a_one_line_error_with_a_suggestion(tmp_path):
     result = run("eval", "--task", "BananaInBowel", "--out", str(tmp_path))
     assert result.returncode == 2
-    assert "Did you mean 'BananaInBowl'?" in result.stderr
+    assert "Did you mean 'BananaInBowl'" in result.stderr
     assert "Traceback" not in result.stderr
 
 

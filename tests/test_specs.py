@@ -38,7 +38,7 @@ def write(folder: Path, name: str, text: str) -> Path:
 def test_shipped_content_loads():
     assert len(load_catalog()) >= 6
     tasks = load_all_tasks()
-    assert [t.name for t in tasks] == ["BananaInBowl"]
+    assert "BananaInBowl" in [t.name for t in tasks]
     spec = load_task("RoboLab-BananaInBowl-v1")
     assert spec.max_episode_steps == 750
     assert (spec.num_subtasks, spec.difficulty_score, spec.difficulty) == (1, 1, "simple")

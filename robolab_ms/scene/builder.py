@@ -16,7 +16,7 @@ from mani_skill.utils.structs.pose import Pose
 from robolab_ms.catalog import Catalog, CatalogObject
 from robolab_ms.catalog.procedural import Part
 from robolab_ms.scene.backgrounds import load_looks
-from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, yaw_quat
+from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, quat_multiply, resting_height, yaw_quat
 
 
 class RoboLabSceneBuilder(SceneBuilder):
@@ -54,8 +54,8 @@ class RoboLabSceneBuilder(SceneBuilder):
 
         for placement in self.spec.objects:
             entry = self.catalog[placement.asset]
-            z = -float(entry.bounds[0, 2]) + 0.002
-            pose = sapien.Pose(p=[*placement.xy, z], q=yaw_quat(placement.yaw))
+            z = resting_height(entry.points, placement.tilt) + 0.002
+            pose = sapien.Pose(p=[*placement.xy, z], q=quat_multiply(yaw_quat(placement.yaw), placement.tilt))
             self.objects[placement.name] = entry.build(self.scene, placement.name, pose)
         self.scene_objects = {"table": self.table, "robot_pedestal": self.pedestal, **self.objects}
         self.movable_objects = dict(self.objects)
@@ -78,8 +78,8 @@ class RoboLabSceneBuilder(SceneBuilder):
             yaw = placement.yaw + rng.uniform(-self.spec.jitter_yaw, self.spec.jitter_yaw, size=(1,)).reshape(count)
             position = np.zeros((count, 3))
             position[:, :2] = np.asarray(placement.xy) + offset
-            position[:, 2] = -float(entry.bounds[0, 2]) + 0.002
-            quaternion = np.stack([yaw_quat(angle) for angle in yaw])
+            position[:, 2] = resting_height(entry.points, placement.tilt) + 0.002
+            quaternion = np.stack([quat_multiply(yaw_quat(angle), placement.tilt) for angle in yaw])
             actor = self.objects[placement.name]
             actor.set_pose(Pose.create_from_pq(
                 torch.as_tensor(position, dtype=torch.float32), torch.as_tensor(quaternion, dtype=torch.float32)))
