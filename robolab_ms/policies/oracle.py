@@ -29,6 +29,7 @@ RELEASE_CLEARANCE = 0.03  # m between the held object's bottom and the place sur
 GRIPPER_STEPS = 8  # control steps to close or open the gripper (about half a second)
 SETTLE_STEPS = 3  # control steps held at the end of every move, for the PD controller to catch up
 BACK_OFF = 0.06  # m the hand backs away (and rises) after setting an object down upright
+PART_RADIUS = 0.03  # m: the points around a grasped part that decide its closing direction and height
 GRASP_DEPTH = 0.03  # m below an object's top where the TCP (the middle of the finger pads) closes ...
 FINGERTIP_CLEARANCE = 0.025  # ... but at least this high above its bottom, so the fingertips stay off the table
 IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
@@ -196,8 +197,11 @@ class OraclePolicy(Policy):
         self._hold(qpos, 0.0, GRIPPER_STEPS)
         back = stand.copy()
         back[:3] += -final_rotation[:, 2] * BACK_OFF + np.array([0.0, 0.0, BACK_OFF])  # back along the fingers and up
-        qpos = self._move(qpos, back, f"back off from '{name}'")
-        self._move(qpos, _raised(back, APPROACH_HEIGHT), f"raise the hand above '{name}'")
+        try:  # the object stands and is let go: moving the hand away is a courtesy, not a must
+            qpos = self._move(qpos, back, f"back off from '{name}'")
+            self._move(qpos, _raised(back, APPROACH_HEIGHT), f"raise the hand above '{name}'")
+        except OracleFailure:
+            pass
 
     def _move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
         """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints."""
@@ -274,19 +278,34 @@ def object_bottom(env: RoboLabEnv, name: str) -> float:
 
 
 def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, keep_sign: bool = False) -> np.ndarray:
-    """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP: fingers close along `closing` (default: across the
-    object's narrowest horizontal direction), a little below its top and clear of the table."""
+    """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP: at the middle of the object's footprint, or, when
+    nothing of the object is there (a ring, a pair of glasses), at its part nearest the middle; fingers close along
+    `closing` (default: across the part's narrowest horizontal direction); a little below the part's top and clear
+    of the table."""
     env.eval_context.refresh()
     points = _world_points(env, name)
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
+    if not _hits(env, name, centre[:2], points[:, 2].max()):  # the middle is empty: grasp the part of the object nearest to it
+        nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
+        points = points[np.linalg.norm(points[:, :2] - nearest[:2], axis=1) < PART_RADIUS]
+        centre = np.array([nearest[0], nearest[1], (points[:, 2].max() + points[:, 2].min()) / 2])
     if closing is None:
         xy = points[:, :2] - points[:, :2].mean(axis=0)
         _, vectors = np.linalg.eigh(xy.T @ xy)
         closing = vectors[:, 0]  # the direction of least spread: the fingers close along it
-    narrow = closing
     top, bottom = points[:, 2].max(), points[:, 2].min()
     z = max(top - GRASP_DEPTH, bottom + FINGERTIP_CLEARANCE)
-    return np.concatenate([[centre[0], centre[1], z], _down_quaternion(narrow, keep_sign)])
+    return np.concatenate([[centre[0], centre[1], z], _down_quaternion(closing, keep_sign)])
+
+
+def _hits(env: RoboLabEnv, name: str, xy: np.ndarray, top: float) -> bool:
+    """Whether a ray cast straight down at `xy`, from just above the object's `top`, meets the object first (on the
+    CPU simulator; elsewhere assumed)."""
+    if env.scene.gpu_sim_enabled:
+        return True
+    start = np.array([xy[0], xy[1], top + 0.01], dtype=np.float32)
+    hit = env.scene.px.raycast(start, np.array([0.0, 0.0, -1.0], dtype=np.float32), top + 1.0)
+    return hit is not None and hit.component.entity in env.objects[name]._objs
 
 
 def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float) -> np.ndarray:
