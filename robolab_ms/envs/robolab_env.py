@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from typing import Any
 
 import numpy as np
@@ -118,7 +119,10 @@ class RoboLabEnv(BaseEnv):
 
     # ------------------------------------------------------------------------------------------------ lifecycle
     def _load_agent(self, options: dict) -> None:
-        super()._load_agent(options, self._robot_base_pose())
+        with warnings.catch_warnings():
+            # ManiSkill's passive joint controller (the Robotiq linkage) declares an empty float64 Box: a harmless cast
+            warnings.filterwarnings("ignore", message=r".*Box (low|high)'s precision lowered by casting to float32")
+            super()._load_agent(options, self._robot_base_pose())
 
     def _robot_base_pose(self) -> sapien.Pose:
         yaw = self.robot.base_yaw
