@@ -284,6 +284,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     of the table."""
     env.eval_context.refresh()
     points = _world_points(env, name)
+    bottom = points[:, 2].min()  # of the whole object: what the fingertips must stay clear of is below it
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
     if not _hits(env, name, centre[:2], points[:, 2].max()):  # the middle is empty: grasp the part of the object nearest to it
         nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
@@ -293,8 +294,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         xy = points[:, :2] - points[:, :2].mean(axis=0)
         _, vectors = np.linalg.eigh(xy.T @ xy)
         closing = vectors[:, 0]  # the direction of least spread: the fingers close along it
-    top, bottom = points[:, 2].max(), points[:, 2].min()
-    z = max(top - GRASP_DEPTH, bottom + FINGERTIP_CLEARANCE)
+    z = max(points[:, 2].max() - GRASP_DEPTH, bottom + FINGERTIP_CLEARANCE)
     return np.concatenate([[centre[0], centre[1], z], _down_quaternion(closing, keep_sign)])
 
 
