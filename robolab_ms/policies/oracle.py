@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from gymnasium import spaces
 
+from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
 
@@ -183,9 +184,9 @@ class OraclePolicy(Policy):
         # then turn about world z so the hand points away from the robot
         tip = _rotation_between(up, np.array([0.0, 0.0, 1.0]))
         outward = np.array([grasp[0], grasp[1], 0.0]) / np.linalg.norm(grasp[:2])
-        hand_axis = tip @ _quaternion_to_matrix(grasp[3:])[:, 2]  # the fingers' direction after tipping
+        hand_axis = tip @ quat_to_matrix(grasp[3:])[:, 2]  # the fingers' direction after tipping
         turn = _rotation_between(np.array([hand_axis[0], hand_axis[1], 0.0]), outward)
-        final_rotation = turn @ tip @ _quaternion_to_matrix(grasp[3:])
+        final_rotation = turn @ tip @ quat_to_matrix(grasp[3:])
         object_in_hand = _world_points(env, name) - grasp[:3]  # object points relative to the TCP, world frame
         object_in_hand = object_in_hand @ (turn @ tip).T
         centre = (object_in_hand.max(axis=0) + object_in_hand.min(axis=0)) / 2
@@ -386,10 +387,3 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         axis = np.cross(a, other)
         return Rotation.from_rotvec(axis / np.linalg.norm(axis) * np.pi).as_matrix()
     return Rotation.from_rotvec(axis / sine * np.arctan2(sine, cosine)).as_matrix()
-
-
-def _quaternion_to_matrix(quaternion: np.ndarray) -> np.ndarray:
-    from scipy.spatial.transform import Rotation
-
-    w, x, y, z = quaternion
-    return Rotation.from_quat([x, y, z, w]).as_matrix()
