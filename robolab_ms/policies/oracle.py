@@ -34,6 +34,9 @@ PART_RADIUS = 0.03  # m: the points around a grasped part that decide its closin
 GRASP_DEPTH = 0.03  # m below an object's top where the TCP (the middle of the finger pads) closes ...
 FINGERTIP_CLEARANCE = 0.025  # ... but at least this high above its bottom, so the fingertips stay off the table
 IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
+RIM_DEPTH = 0.02  # m the TCP reaches into a lying container's opening for a rim grasp ...
+RIM_APPROACH = 0.06  # ... after moving in straight from this far outside it
+PIVOT_STEPS = 6  # straight moves that tip a lying container up about its base
 PANDA_ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 FLANGE_LINK = "panda_link8"
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
@@ -154,43 +157,118 @@ class OraclePolicy(Policy):
         self._move(qpos, _raised(place, APPROACH_HEIGHT), f"retreat from {where}")
 
     def _plan_reorientation(self, name: str) -> None:
-        """Stand a lying object up: grasp it from above across its body, lift it, turn the hand so the object's up
-        axis points up (the hand then points away from the robot), set it down beside where it lay, back off."""
+        """Stand a lying object up. A lying container is held by the top of its rim (one finger inside) and tipped
+        up about the lowest point of its base, which stays on the table; anything else is grasped from above across
+        its body, lifted, turned so its up axis points up, and set down where it lay."""
         env = self.env
         up = env.eval_context.up_axis(name)[0].cpu().numpy().astype(np.float64)
         flat = np.array([up[0], up[1], 0.0])
         if np.linalg.norm(flat) < 1e-3:
             raise OracleFailure(f"'{name}' is upside down: turning it over is not supported")
         flat /= np.linalg.norm(flat)
-        closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
         planned = len(self.actions)
-        try:  # the hand can hold the object two ways round; near joint limits only one of them can be planned
-            self._plan_reorientation_holding(name, up, closing)
+        if env.eval_context.entries[name].is_container:
+            grasp = rim_grasp(env, name, up)
+            # the hand may hold the rim either way up; near joint limits only one of them can be planned
+            attempts = [lambda g=g: self._plan_pivot_upright(name, up, g) for g in (grasp, _rolled(grasp))]
+        else:
+            closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
+            attempts = [lambda c=c: self._plan_reorientation_holding(name, up, c) for c in (closing, -closing)]
+        for attempt, plan in enumerate(attempts):
+            try:
+                plan()
+                return
+            except OracleFailure:
+                while len(self.actions) > planned:
+                    self.actions.pop()
+                if attempt == len(attempts) - 1:
+                    raise
+
+    def _plan_pivot_upright(self, name: str, up: np.ndarray, grasp: np.ndarray) -> None:
+        """Hold a lying container by its rim (`grasp`, reached straight through its opening) and tip it up about
+        the lowest point of its base, which stays on the table, then let go and lift the hand. The arm posture at
+        the grasp is chosen so that the whole tipping motion is one chain of straight moves."""
+        env, planner = self.env, self._planner
+        points = _world_points(env, name)
+        base_end = points[points @ up < (points @ up).min() + 0.01]
+        pivot = base_end[base_end[:, 2].argmin()]  # where the base touches the table: it stays there
+        axis = np.cross(up, [0.0, 0.0, 1.0])
+        angle = np.arccos(np.clip(up[2], -1.0, 1.0))
+        hand = quat_to_matrix(grasp[3:])
+        tipping = []
+        for step in range(1, PIVOT_STEPS + 1):
+            turn = _rotation_about(axis, angle * step / PIVOT_STEPS)
+            tipping.append(np.concatenate([pivot + turn @ (grasp[:3] - pivot), _matrix_to_quaternion(turn @ hand)]))
+        qpos = self._planner_qpos()
+        status, postures = planner.IK(self._flange_target(grasp), qpos, n_init_qpos=IK_RETRIES)
+        if status != "Success":
+            raise OracleFailure(f"cannot reach the rim of '{name}': {status}")
+        for posture in sorted(postures, key=lambda p: np.abs(p[:7] - qpos[:7]).sum()):
+            at_grasp = qpos.copy()
+            at_grasp[:7] = posture[:7]
+            tip_paths = self._straight_chain(at_grasp, tipping)
+            back_out = self._straight_chain(at_grasp, [_shifted(grasp, up * RIM_APPROACH)])
+            if tip_paths is not None and back_out is not None:
+                break
+        else:
+            raise OracleFailure(f"cannot tip '{name}' up about its base: no arm posture allows the straight moves")
+        outside = at_grasp.copy()
+        outside[:7] = back_out[0][-1]
+        result = planner.plan_qpos_to_qpos([outside], qpos, time_step=1.0 / env.control_freq, planning_time=2.0)
+        if result["status"] != "Success":
+            raise OracleFailure(f"cannot reach the opening of '{name}': no motion plan ({result['status']})")
+        self._queue(qpos, result["position"])
+        self._queue(outside, back_out[0][::-1][1:].tolist() + [posture[:7]])
+        self._hold(at_grasp, 1.0, GRIPPER_STEPS)
+        for path in tip_paths:
+            self._queue(at_grasp, path)
+        final = at_grasp.copy()
+        final[:7] = tip_paths[-1][-1]
+        self._hold(final, 0.0, GRIPPER_STEPS)
+        try:  # the object stands and is let go: lifting the hand away is a courtesy, not a must
+            self._move(final, _raised(tipping[-1], APPROACH_HEIGHT), f"lift the hand out of '{name}'")
         except OracleFailure:
-            while len(self.actions) > planned:
-                self.actions.pop()
-            self._plan_reorientation_holding(name, up, -closing)
+            pass
+
+    def _straight_chain(self, qpos: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray] | None:
+        """Joint paths of consecutive straight moves through TCP `poses` from `qpos`, or None if one fails."""
+        paths, current = [], qpos.copy()
+        for pose in poses:
+            result = self._planner.plan_screw(self._flange_target(pose), current, time_step=1.0 / self.env.control_freq)
+            if result["status"] != "Success":
+                return None
+            paths.append(np.asarray(result["position"]))
+            current[:7] = paths[-1][-1]
+        return paths
+
+    def _queue(self, qpos: np.ndarray, path) -> None:
+        """Queue a joint path (rows of 7 arm joints) from posture `qpos`, then hold its end a moment."""
+        final = qpos.copy()
+        for joints in path:
+            final[:7] = joints
+            self.actions.append(self._action(final, self.gripper))
+        self._hold(final, self.gripper, SETTLE_STEPS)
 
     def _plan_reorientation_holding(self, name: str, up: np.ndarray, closing: np.ndarray) -> None:
+        """Grasp `name` from above with the fingers closing along `closing`, lift it, tip its up axis to world z
+        with the hand turned to point away from the robot, set it down where it lay and back off."""
         env = self.env
         grasp = grasp_pose(env, name, closing=closing, keep_sign=True)
         qpos = self._planner_qpos()
         qpos = self._move(qpos, _raised(grasp, APPROACH_HEIGHT), f"reach above '{name}'", straight=False)
         qpos = self._move(qpos, grasp, f"descend to '{name}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
-        lifted = _raised(grasp, LIFT_HEIGHT)
-        qpos = self._move(qpos, lifted, f"lift '{name}'")
-        # where the hand must be for the object to stand: tip about the closing axis (its up axis to world z),
-        # then turn about world z so the hand points away from the robot
+        qpos = self._move(qpos, _raised(grasp, LIFT_HEIGHT), f"lift '{name}'")
         tip = _rotation_between(up, np.array([0.0, 0.0, 1.0]))
-        outward = np.array([grasp[0], grasp[1], 0.0]) / np.linalg.norm(grasp[:2])
         hand_axis = tip @ quat_to_matrix(grasp[3:])[:, 2]  # the fingers' direction after tipping
+        outward = np.array([grasp[0], grasp[1], 0.0]) / np.linalg.norm(grasp[:2])
         turn = _rotation_between(np.array([hand_axis[0], hand_axis[1], 0.0]), outward)
         final_rotation = turn @ tip @ quat_to_matrix(grasp[3:])
-        object_in_hand = _world_points(env, name) - grasp[:3]  # object points relative to the TCP, world frame
-        object_in_hand = object_in_hand @ (turn @ tip).T
+        object_points = _world_points(env, name)
+        lying_centre = (object_points.max(axis=0) + object_points.min(axis=0)) / 2
+        object_in_hand = (object_points - grasp[:3]) @ (turn @ tip).T  # object points relative to the TCP, turned
         centre = (object_in_hand.max(axis=0) + object_in_hand.min(axis=0)) / 2
-        target_xy = grasp[:2] - centre[:2]  # the object's centre ends where the grasp point was
+        target_xy = lying_centre[:2] - centre[:2]  # the object stands where it lay
         z = RELEASE_CLEARANCE - object_in_hand[:, 2].min()
         stand = np.concatenate([[target_xy[0], target_xy[1], z], _matrix_to_quaternion(final_rotation)])
         qpos = self._move(qpos, _raised(stand, APPROACH_HEIGHT), f"turn '{name}' upright", straight=False)
@@ -204,11 +282,17 @@ class OraclePolicy(Policy):
         except OracleFailure:
             pass
 
-    def _move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
-        """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints."""
+    def _move(
+        self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True, only_straight: bool = False
+    ) -> np.ndarray:
+        """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints. The
+        move is a straight screw motion when `straight` and one can be planned (always when `only_straight`),
+        else any collision-free path."""
         planner, step = self._planner, 1.0 / self.env.control_freq
         pose = self._flange_target(pose)
-        result = planner.plan_screw(pose, qpos, time_step=step) if straight else {"status": "not tried"}
+        result = planner.plan_screw(pose, qpos, time_step=step) if straight or only_straight else {"status": "not tried"}
+        if result["status"] != "Success" and only_straight:
+            raise OracleFailure(f"cannot {what}: no straight motion ({result['status']})")
         if result["status"] != "Success":
             result = planner.plan_qpos_to_pose(pose, qpos, time_step=step, planning_time=2.0)
         if result["status"] != "Success" and "IK" in result["status"]:  # near the edge of the workspace: try harder
@@ -339,6 +423,59 @@ def free_spot(env: RoboLabEnv, avoid: list[str], clearance: float = 0.12) -> tup
     middle = np.array([np.mean(TABLE_SAFE_X), np.mean(TABLE_SAFE_Y)])
     x, y = ok[np.linalg.norm(ok - middle, axis=1).argmin()]
     return float(x), float(y)
+
+
+def rim_grasp(env: RoboLabEnv, name: str, up: np.ndarray) -> np.ndarray:
+    """A grasp [x, y, z, qw, qx, qy, qz] of a container lying on its side (its opening facing `up`, roughly
+    horizontal): the hand points into the opening and the fingers close vertically on the top of the rim's wall,
+    one finger inside the container and one above it."""
+    env.eval_context.refresh()
+    points = _world_points(env, name)
+    reach = points @ up
+    mouth = reach.max()
+    near_mouth = points[reach > mouth - RIM_DEPTH - 0.01]
+    top = near_mouth[near_mouth[:, 2].argmax()]  # the top of the wall beside the opening
+    at = top + up * (mouth - RIM_DEPTH - top @ up)  # RIM_DEPTH inside the opening
+    outer = _ray_hit(env, name, np.array([at[0], at[1], top[2] + 0.02]), -1.0)
+    middle = (points[:, 2].max() + points[:, 2].min()) / 2
+    inner = _ray_hit(env, name, np.array([at[0], at[1], middle]), 1.0)
+    if outer is None or inner is None or not inner < outer:
+        raise OracleFailure(f"no rim grasp on '{name}': cannot find the wall at the top of its opening")
+    approach = -up / np.linalg.norm(up)
+    closing = np.array([0.0, 0.0, 1.0])
+    rotation = np.stack([np.cross(closing, approach), closing, approach], axis=1)
+    return np.concatenate([[at[0], at[1], (inner + outer) / 2], _matrix_to_quaternion(rotation)])
+
+
+def _ray_hit(env: RoboLabEnv, name: str, start: np.ndarray, direction_z: float) -> float | None:
+    """Height where a vertical ray from `start` (up for +1, down for -1) first meets object `name`, if it does (on
+    the CPU simulator only)."""
+    if env.scene.gpu_sim_enabled:
+        raise OracleFailure("rim grasps need ray casts, which the oracle does only on the CPU simulator")
+    direction = np.array([0.0, 0.0, direction_z], dtype=np.float32)
+    hit = env.scene.px.raycast(start.astype(np.float32), direction, 1.0)
+    if hit is None or hit.component.entity not in env.objects[name]._objs:
+        return None
+    return float(start[2] + direction_z * hit.distance)
+
+
+def _shifted(pose: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    shifted = pose.copy()
+    shifted[:3] += offset
+    return shifted
+
+
+def _rolled(pose: np.ndarray) -> np.ndarray:
+    """The same TCP pose turned half a turn about the fingers' direction (the fingers swap sides)."""
+    rolled = pose.copy()
+    rolled[3:] = _matrix_to_quaternion(quat_to_matrix(pose[3:]) @ np.diag([-1.0, -1.0, 1.0]))
+    return rolled
+
+
+def _rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec(axis / np.linalg.norm(axis) * angle).as_matrix()
 
 
 def _raised(pose: np.ndarray, height: float) -> np.ndarray:
