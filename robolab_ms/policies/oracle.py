@@ -37,6 +37,9 @@ IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 
 RIM_DEPTH = 0.02  # m the TCP reaches into a lying container's opening for a rim grasp ...
 RIM_APPROACH = 0.06  # ... after moving in straight from this far outside it
 PIVOT_STEPS = 6  # straight moves that tip a lying container up about its base
+TRAVEL_RADIUS = 0.15  # m: objects this near (horizontally) a pose above a grasp or a place point ...
+TRAVEL_CLEARANCE = 0.04  # ... are passed this high above, by the fingertips or the held object
+FINGERTIP_BELOW_TCP = 0.01  # m the fingertips reach below the TCP
 PANDA_ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 FLANGE_LINK = "panda_link8"
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
@@ -49,8 +52,8 @@ class OracleFailure(RoboLabError):
 
 @dataclass(frozen=True)
 class Job:
-    """Move one object: onto or into the object `onto`, onto the table at `at` (x, y), up by `lift` metres, or
-    stand it upright where it lies (`upright`)."""
+    """Move one object: onto or into the object `onto`, onto the table with the middle of its footprint at `at`
+    (x, y), up by `lift` metres, or stand it upright where it lies (`upright`)."""
 
     obj: str
     onto: str | None = None
@@ -62,6 +65,7 @@ class Job:
 SIDE_OFFSET = 0.15  # m from a reference's centre to where an object is put beside it (left of, behind, ...)
 DIRECTIONS = {"left_of": (0.0, 1.0), "right_of": (0.0, -1.0), "in_front_of": (-1.0, 0.0), "behind": (1.0, 0.0)}
 TABLE_SAFE_X, TABLE_SAFE_Y = (0.30, 0.75), (-0.40, 0.40)  # where the oracle may put things down (robot frame, m)
+SPOT_MARGIN = 0.03  # m of table kept clear around an object the oracle puts down
 
 
 def jobs_for(env: RoboLabEnv) -> list[Job]:
@@ -93,7 +97,11 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
         tolerance = params.get("tolerance", 0.1)
         return [Job(name, upright=True) for name in objects if _tilt(env, name) > tolerance]
     if predicate in ("outside_of", "outside_of_and_on_surface"):
-        return [Job(name, at=free_spot(env, avoid=objects)) for name in objects]
+        env.eval_context.refresh()
+        footprints: list[np.ndarray] = []
+        for name in objects:
+            footprints.append(free_spot(env, name, avoid=objects, taken=footprints))
+        return [Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)]
     raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
 
 
@@ -140,21 +148,25 @@ class OraclePolicy(Policy):
             self._plan_reorientation(job.obj)
             return
         grasp = grasp_pose(env, job.obj)
+        held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
+        held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
         qpos = self._planner_qpos()
-        qpos = self._move(qpos, _raised(grasp, APPROACH_HEIGHT), f"reach above '{job.obj}'", straight=False)
+        above_grasp = _above(grasp, APPROACH_HEIGHT, clear_of=env, hanging=0.0)
+        qpos = self._move(qpos, above_grasp, f"reach above '{job.obj}'", straight=False)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
-        held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
         if job.onto is None and job.at is None:
             self._move(qpos, _raised(grasp, job.lift), f"lift '{job.obj}'")
             return
-        qpos = self._move(qpos, _raised(grasp, LIFT_HEIGHT), f"lift '{job.obj}'")
+        lifted = _above(grasp, LIFT_HEIGHT, clear_of=env, hanging=held_bottom, held=job.obj)
+        qpos = self._move(qpos, lifted, f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
-        place = place_pose(env, job, grasp, held_bottom)
-        qpos = self._move(qpos, _raised(place, APPROACH_HEIGHT), f"carry '{job.obj}' over {where}", straight=False)
+        place = place_pose(env, job, grasp, held_bottom, held_offset)
+        above_place = _above(place, APPROACH_HEIGHT, clear_of=env, hanging=held_bottom, held=job.obj)
+        qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
-        self._move(qpos, _raised(place, APPROACH_HEIGHT), f"retreat from {where}")
+        self._move(qpos, above_place, f"retreat from {where}")
 
     def _plan_reorientation(self, name: str) -> None:
         """Stand a lying object up. A lying container is held by the top of its rim (one finger inside) and tipped
@@ -207,18 +219,21 @@ class OraclePolicy(Policy):
             at_grasp = qpos.copy()
             at_grasp[:7] = posture[:7]
             tip_paths = self._straight_chain(at_grasp, tipping)
-            back_out = self._straight_chain(at_grasp, [_shifted(grasp, up * RIM_APPROACH)])
+            outside = _shifted(grasp, up * RIM_APPROACH)
+            back_out = self._straight_chain(at_grasp, [outside, _raised(outside, APPROACH_HEIGHT)])
             if tip_paths is not None and back_out is not None:
                 break
         else:
             raise OracleFailure(f"cannot tip '{name}' up about its base: no arm posture allows the straight moves")
-        outside = at_grasp.copy()
-        outside[:7] = back_out[0][-1]
-        result = planner.plan_qpos_to_qpos([outside], qpos, time_step=1.0 / env.control_freq, planning_time=2.0)
+        # come in the way the hand would back out: down beside the opening, then straight in
+        above_outside = at_grasp.copy()
+        above_outside[:7] = back_out[-1][-1]
+        result = planner.plan_qpos_to_qpos([above_outside], qpos, time_step=1.0 / env.control_freq, planning_time=2.0)
         if result["status"] != "Success":
             raise OracleFailure(f"cannot reach the opening of '{name}': no motion plan ({result['status']})")
         self._queue(qpos, result["position"])
-        self._queue(outside, back_out[0][::-1][1:].tolist() + [posture[:7]])
+        way_in = np.concatenate([back_out[1][::-1], back_out[0][::-1][1:], [posture[:7]]])
+        self._queue(above_outside, way_in)
         self._hold(at_grasp, 1.0, GRIPPER_STEPS)
         for path in tip_paths:
             self._queue(at_grasp, path)
@@ -393,15 +408,16 @@ def _hits(env: RoboLabEnv, name: str, xy: np.ndarray, top: float) -> bool:
     return hit is not None and hit.component.entity in env.objects[name]._objs
 
 
-def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float) -> np.ndarray:
+def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float, held_offset: np.ndarray) -> np.ndarray:
     """Where the TCP goes to release the held object: centred over `job.onto` with the object's bottom just above
-    its top (a container's rim must be cleared on the way down), or just above the table at `job.at`."""
+    its top (a container's rim must be cleared on the way down), or just above the table with the middle of the
+    object's footprint (`held_offset` from the TCP) at `job.at`."""
     if job.onto is not None:
         points = _world_points(env, job.onto)
         x, y = (points[:, :2].max(axis=0) + points[:, :2].min(axis=0)) / 2
         top = points[:, 2].max()
     else:
-        (x, y), top = job.at, 0.0
+        (x, y), top = np.asarray(job.at) + held_offset, 0.0
     return np.concatenate([[x, y, top + RELEASE_CLEARANCE + held_bottom], grasp[3:]])
 
 
@@ -411,18 +427,29 @@ def _centre(env: RoboLabEnv, name: str) -> np.ndarray:
     return (points.max(axis=0) + points.min(axis=0)) / 2
 
 
-def free_spot(env: RoboLabEnv, avoid: list[str], clearance: float = 0.12) -> tuple[float, float]:
-    """A table point at least `clearance` from every other object's centre, nearest the middle of the safe area."""
-    others = np.array([_centre(env, name)[:2] for name in env.objects if name not in avoid]).reshape(-1, 2)
+def free_spot(env: RoboLabEnv, name: str, avoid: list[str], taken: list[np.ndarray]) -> np.ndarray:
+    """A footprint [x_min, y_min, x_max, y_max] on the table where `name`, moved without turning, can be put down:
+    SPOT_MARGIN clear of every other object's footprint (except those in `avoid`, which are on the move) and of the
+    footprints in `taken`; of those, the one nearest the middle of the safe area."""
+    own = _world_points(env, name)[:, :2]
+    half = (own.max(axis=0) - own.min(axis=0)) / 2
     xs, ys = np.meshgrid(np.linspace(*TABLE_SAFE_X, 19), np.linspace(*TABLE_SAFE_Y, 33))
     spots = np.stack([xs.ravel(), ys.ravel()], axis=1)
-    gaps = np.linalg.norm(spots[:, None] - others[None], axis=-1).min(axis=1) if len(others) else np.full(len(spots), 1.0)
-    ok = spots[gaps >= clearance]
-    if not len(ok):
-        raise OracleFailure(f"no free spot on the table {clearance:.2f} m away from the other objects")
+    boxes = list(taken)
+    for other in env.objects:
+        if other not in avoid and other != name:
+            points = _world_points(env, other)[:, :2]
+            boxes.append(np.concatenate([points.min(axis=0), points.max(axis=0)]))
+    ok = np.ones(len(spots), dtype=bool)
+    for box in boxes:
+        centre, other_half = (box[:2] + box[2:]) / 2, (box[2:] - box[:2]) / 2
+        gaps = np.abs(spots - centre) - half - other_half  # per axis; apart when either gap is wide enough
+        ok &= gaps.max(axis=1) >= SPOT_MARGIN
+    if not ok.any():
+        raise OracleFailure(f"no free spot on the table for '{name}' {SPOT_MARGIN:.2f} m clear of everything else")
     middle = np.array([np.mean(TABLE_SAFE_X), np.mean(TABLE_SAFE_Y)])
-    x, y = ok[np.linalg.norm(ok - middle, axis=1).argmin()]
-    return float(x), float(y)
+    spot = spots[ok][np.linalg.norm(spots[ok] - middle, axis=1).argmin()]
+    return np.concatenate([spot - half, spot + half])
 
 
 def rim_grasp(env: RoboLabEnv, name: str, up: np.ndarray) -> np.ndarray:
@@ -476,6 +503,21 @@ def _rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
     return Rotation.from_rotvec(axis / np.linalg.norm(axis) * angle).as_matrix()
+
+
+def _above(
+    pose: np.ndarray, height: float, clear_of: RoboLabEnv, hanging: float, held: str | None = None
+) -> np.ndarray:
+    """`pose` raised by `height`, and further if needed so that whatever hangs `hanging` metres below the TCP (the
+    held object; else the fingertips) passes TRAVEL_CLEARANCE above every object (but `held`) within TRAVEL_RADIUS."""
+    env = clear_of
+    tops = [
+        points[np.linalg.norm(points[:, :2] - pose[:2], axis=1) < TRAVEL_RADIUS, 2].max(initial=0.0)
+        for points in (_world_points(env, name) for name in env.objects if name != held)
+    ]
+    raised = pose.copy()
+    raised[2] = max(pose[2] + height, max(tops, default=0.0) + TRAVEL_CLEARANCE + max(hanging, FINGERTIP_BELOW_TCP))
+    return raised
 
 
 def _raised(pose: np.ndarray, height: float) -> np.ndarray:
