@@ -151,18 +151,18 @@ class OraclePolicy(Policy):
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
         qpos = self._planner_qpos()
-        above_grasp = _above(grasp, APPROACH_HEIGHT, clear_of=env, hanging=0.0)
+        above_grasp = _above(env, grasp, APPROACH_HEIGHT, hanging=0.0)
         qpos = self._move(qpos, above_grasp, f"reach above '{job.obj}'", straight=False)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
         if job.onto is None and job.at is None:
             self._move(qpos, _raised(grasp, job.lift), f"lift '{job.obj}'")
             return
-        lifted = _above(grasp, LIFT_HEIGHT, clear_of=env, hanging=held_bottom, held=job.obj)
+        lifted = _above(env, grasp, LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
         qpos = self._move(qpos, lifted, f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
         place = place_pose(env, job, grasp, held_bottom, held_offset)
-        above_place = _above(place, APPROACH_HEIGHT, clear_of=env, hanging=held_bottom, held=job.obj)
+        above_place = _above(env, place, APPROACH_HEIGHT, hanging=held_bottom, held=job.obj)
         qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
@@ -256,13 +256,15 @@ class OraclePolicy(Policy):
             current[:7] = paths[-1][-1]
         return paths
 
-    def _queue(self, qpos: np.ndarray, path) -> None:
-        """Queue a joint path (rows of 7 arm joints) from posture `qpos`, then hold its end a moment."""
+    def _queue(self, qpos: np.ndarray, path) -> np.ndarray:
+        """Queue a joint path (rows of 7 arm joints) from posture `qpos`, then hold its end a moment; returns the
+        final posture."""
         final = qpos.copy()
         for joints in path:
             final[:7] = joints
             self.actions.append(self._action(final, self.gripper))
         self._hold(final, self.gripper, SETTLE_STEPS)
+        return final
 
     def _plan_reorientation_holding(self, name: str, up: np.ndarray, closing: np.ndarray) -> None:
         """Grasp `name` from above with the fingers closing along `closing`, lift it, tip its up axis to world z
@@ -297,17 +299,11 @@ class OraclePolicy(Policy):
         except OracleFailure:
             pass
 
-    def _move(
-        self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True, only_straight: bool = False
-    ) -> np.ndarray:
-        """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints. The
-        move is a straight screw motion when `straight` and one can be planned (always when `only_straight`),
-        else any collision-free path."""
+    def _move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
+        """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints."""
         planner, step = self._planner, 1.0 / self.env.control_freq
         pose = self._flange_target(pose)
-        result = planner.plan_screw(pose, qpos, time_step=step) if straight or only_straight else {"status": "not tried"}
-        if result["status"] != "Success" and only_straight:
-            raise OracleFailure(f"cannot {what}: no straight motion ({result['status']})")
+        result = planner.plan_screw(pose, qpos, time_step=step) if straight else {"status": "not tried"}
         if result["status"] != "Success":
             result = planner.plan_qpos_to_pose(pose, qpos, time_step=step, planning_time=2.0)
         if result["status"] != "Success" and "IK" in result["status"]:  # near the edge of the workspace: try harder
@@ -316,12 +312,7 @@ class OraclePolicy(Policy):
                 result = planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=2.0)
         if result["status"] != "Success":
             raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
-        final = qpos.copy()
-        for joints in result["position"]:
-            final[planner.move_group_joint_indices] = joints
-            self.actions.append(self._action(final, self.gripper))
-        self._hold(final, self.gripper, SETTLE_STEPS)
-        return final
+        return self._queue(qpos, result["position"])
 
     def _flange_target(self, tcp_pose: np.ndarray) -> np.ndarray:
         """The flange pose [x, y, z, qw, qx, qy, qz] that puts the TCP at `tcp_pose`."""
@@ -403,9 +394,7 @@ def _hits(env: RoboLabEnv, name: str, xy: np.ndarray, top: float) -> bool:
     CPU simulator; elsewhere assumed)."""
     if env.scene.gpu_sim_enabled:
         return True
-    start = np.array([xy[0], xy[1], top + 0.01], dtype=np.float32)
-    hit = env.scene.px.raycast(start, np.array([0.0, 0.0, -1.0], dtype=np.float32), top + 1.0)
-    return hit is not None and hit.component.entity in env.objects[name]._objs
+    return _ray_hit(env, name, np.array([xy[0], xy[1], top + 0.01]), -1.0) is not None
 
 
 def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float, held_offset: np.ndarray) -> np.ndarray:
@@ -505,12 +494,9 @@ def _rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
     return Rotation.from_rotvec(axis / np.linalg.norm(axis) * angle).as_matrix()
 
 
-def _above(
-    pose: np.ndarray, height: float, clear_of: RoboLabEnv, hanging: float, held: str | None = None
-) -> np.ndarray:
+def _above(env: RoboLabEnv, pose: np.ndarray, height: float, hanging: float, held: str | None = None) -> np.ndarray:
     """`pose` raised by `height`, and further if needed so that whatever hangs `hanging` metres below the TCP (the
     held object; else the fingertips) passes TRAVEL_CLEARANCE above every object (but `held`) within TRAVEL_RADIUS."""
-    env = clear_of
     tops = [
         points[np.linalg.norm(points[:, :2] - pose[:2], axis=1) < TRAVEL_RADIUS, 2].max(initial=0.0)
         for points in (_world_points(env, name) for name in env.objects if name != held)
