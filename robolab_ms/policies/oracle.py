@@ -476,6 +476,7 @@ def _ray_hit(env: RoboLabEnv, name: str, start: np.ndarray, direction_z: float) 
 
 
 def _shifted(pose: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """`pose` moved by `offset` (x, y, z), turned the same way."""
     shifted = pose.copy()
     shifted[:3] += offset
     return shifted
@@ -507,9 +508,7 @@ def _above(env: RoboLabEnv, pose: np.ndarray, height: float, hanging: float, hel
 
 
 def _raised(pose: np.ndarray, height: float) -> np.ndarray:
-    raised = pose.copy()
-    raised[2] += height
-    return raised
+    return _shifted(pose, np.array([0.0, 0.0, height]))
 
 
 def _down_quaternion(closing_direction: np.ndarray, keep_sign: bool = False) -> np.ndarray:
