@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from importlib import resources
+import math
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -32,20 +33,64 @@ def content_dir(kind: str) -> Path:
 
 
 def load_yaml(path: Path) -> dict[str, Any]:
-    """Read a YAML mapping; syntax errors name the file and line."""
+    """Read a YAML mapping from a UTF-8 file; bad bytes, syntax errors and keys given twice name the file and the
+    line or field."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        raw = Path(path).read_bytes()
     except OSError as error:
         raise SpecError(path, "<file>", f"cannot be read ({error.strerror})") from None
     try:
-        data = yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        line = raw.count(b"\n", 0, error.start) + 1
+        raise SpecError(path, f"line {line}", f"is not UTF-8 text (byte 0x{raw[error.start]:02x} at offset "
+                        f"{error.start})", "Save the file with the UTF-8 encoding") from None  # fmt: skip
+    loader = YAML_LOADER(text)
+    try:
+        node = loader.get_single_node()
+        if node is not None:
+            _refuse_repeated_keys(node, path)
+        data = loader.construct_document(node) if node is not None else None
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark else "<file>"
-        raise SpecError(path, where, f"is not valid YAML ({getattr(error, 'problem', error)})") from None
+        raise SpecError(path, where, f"is not valid YAML ({getattr(error, 'problem', None) or error})") from None
+    finally:
+        loader.dispose()
     if not isinstance(data, dict):
         raise SpecError(path, "<top level>", "must be a mapping of field names to values")
     return data
+
+
+YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+MERGE_TAG = "tag:yaml.org,2002:merge"
+
+
+def _refuse_repeated_keys(root: yaml.Node, file: Path) -> None:
+    """A mapping that gives one key twice is an error (YAML loaders otherwise keep the last value silently)."""
+    stack: list[tuple[yaml.Node, str]] = [(root, "")]
+    visited: set[int] = set()
+    while stack:
+        node, where = stack.pop()
+        if id(node) in visited:  # an alias of a node seen before
+            continue
+        visited.add(id(node))
+        if isinstance(node, yaml.SequenceNode):
+            stack.extend((item, f"{where}[{index}]") for index, item in enumerate(node.value))
+        elif isinstance(node, yaml.MappingNode):
+            first_line: dict[tuple[str, str], int] = {}
+            for key, value in node.value:
+                if key.tag == MERGE_TAG:
+                    continue
+                text = key.value if isinstance(key, yaml.ScalarNode) else f"<line {key.start_mark.line + 1}>"
+                field = f"{where}.{text}" if where else text
+                line = key.start_mark.line + 1
+                if isinstance(key, yaml.ScalarNode) and (key.tag, key.value) in first_line:
+                    raise SpecError(file, field, f"is given twice (lines {first_line[key.tag, key.value]} and "
+                                    f"{line})", "Keep one of them")  # fmt: skip
+                if isinstance(key, yaml.ScalarNode):
+                    first_line[key.tag, key.value] = line
+                stack.append((value, field))
 
 
 class Fields:
@@ -62,27 +107,49 @@ class Fields:
     def error(self, name: str, problem: str, fix: str = "") -> SpecError:
         return SpecError(self.file, self.where(name), problem, fix)
 
+    def has(self, name: str) -> bool:
+        """Whether `name` is given (a field set to null counts as not given)."""
+        return self.data.get(name) is not None
+
     def get(self, name: str, kind: type[T] | tuple[type, ...], default: Any = REQUIRED) -> T:
-        """The value of `name`, checked against `kind`; `default` when absent (required when not given)."""
-        if name not in self.data or self.data[name] is None:
+        """The value of `name`, checked against `kind`; `default` when absent (required when not given). Numbers must
+        be finite and text must not be blank."""
+        if not self.has(name):
             if default is REQUIRED:
                 raise self.error(name, "is missing", "Add it; it is required")
             return default
-        value = self.data[name]
-        if kind is float and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, kind) or (isinstance(value, bool) and kind in (int, float)):
-            expected = kind.__name__ if isinstance(kind, type) else " or ".join(k.__name__ for k in kind)
-            raise self.error(name, f"must be a {expected}, got {value!r}")
+        return check_kind(self.data[name], kind, lambda problem, fix: self.error(name, problem, fix))
+
+    def number(self, name: str, low: float, high: float, default: Any = REQUIRED, *, above: bool = False,
+               unit: str = "") -> float:
+        """A finite number in [low, high] (in (low, high] when `above`); `default` when absent."""
+        if not self.has(name):
+            return self.get(name, float, default)
+        value = self.get(name, float)
+        check_range(value, low, high, above, unit, lambda problem, fix: self.error(name, problem, fix))
         return value
 
-    def number_list(self, name: str, length: int, default: Any = REQUIRED) -> list[float]:
-        value = self.get(name, list, default)
-        if value is default and default is not REQUIRED:
-            return value
-        if len(value) != length or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+    def positive(self, name: str, high: float, default: Any = REQUIRED, unit: str = "") -> float:
+        """A finite number above 0 and at most `high`."""
+        return self.number(name, 0.0, high, default, above=True, unit=unit)
+
+    def number_list(self, name: str, length: int, default: Any = REQUIRED, low: float = -math.inf,
+                    high: float = math.inf, above: bool = False, unit: str = "") -> list[float]:
+        """A list of `length` finite numbers, each in [low, high] (in (low, high] when `above`)."""
+        if not self.has(name):
+            return self.get(name, list, default)
+        value = self.get(name, list)
+        if len(value) != length:
             raise self.error(name, f"must be a list of {length} numbers, got {value!r}")
-        return [float(v) for v in value]
+        numbers = []
+        for index, item in enumerate(value):
+            def make_error(problem: str, fix: str, index: int = index) -> SpecError:
+                return self.error(f"{name}[{index}]", problem, fix)
+
+            number = check_kind(item, float, make_error)
+            check_range(number, low, high, above, unit, make_error)
+            numbers.append(number)
+        return numbers
 
     def sub(self, name: str, default: Any = REQUIRED) -> Fields:
         value = self.get(name, dict, default)
@@ -101,12 +168,19 @@ class Fields:
         return check_name(value, known, what, lambda problem, fix: self.error(name, problem, fix))
 
     def names_in(self, name: str, known: Iterable[str], what: str, default: Any = REQUIRED) -> list[str]:
-        """A list of strings that must each name one of `known`; errors point at the entry (`name[i]`)."""
-        values = self.get(name, list, default)
+        """A list of distinct strings that must each name one of `known`; errors point at the entry (`name[i]`)."""
+        if not self.has(name):
+            return list(self.get(name, list, default))
+        values = self.get(name, list)
         known = list(known)
         for index, value in enumerate(values):
-            check_name(str(value), known, what, lambda problem, fix: self.error(f"{name}[{index}]", problem, fix))
-        return [str(value) for value in values]
+            def make_error(problem: str, fix: str, index: int = index) -> SpecError:
+                return self.error(f"{name}[{index}]", problem, fix)
+
+            check_name(check_kind(value, str, make_error), known, what, make_error)
+            if value in values[:index]:
+                raise make_error(f"'{value}' is listed twice (also at [{values.index(value)}])", "List it once")
+        return list(values)
 
     def only(self, allowed: Iterable[str]) -> None:
         """Reject fields this schema does not know (typos would otherwise be ignored silently)."""
@@ -114,6 +188,42 @@ class Fields:
         for key in self.data:
             if key not in allowed:
                 raise self.error(str(key), "is not a known field", did_you_mean(str(key), allowed))
+
+
+KIND_NAMES = {float: "number", int: "whole number", str: "text", bool: "true or false", list: "list",
+              dict: "mapping"}
+
+
+def check_kind(value: Any, kind: type[T] | tuple[type, ...], make_error: Callable[[str, str], Exception]) -> T:
+    """`value` checked against `kind` (an int is a float, a bool is not a number); numbers finite, text not blank."""
+    kinds = kind if isinstance(kind, tuple) else (kind,)
+    if float in kinds and isinstance(value, int) and not isinstance(value, bool):
+        if abs(value) > 1e300:
+            raise make_error(f"is far too large ({len(str(abs(value)))} digits)", "Write a plain number such as 0.5")
+        value = float(value)
+    if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
+        expected = " or ".join(KIND_NAMES.get(k, k.__name__) for k in kinds)
+        expected = f"{'an' if expected[0] in 'aeiou' else 'a'} {expected}"
+        raise make_error(f"must be {expected}, got {value!r}", f"Write {expected} here")
+    if isinstance(value, float) and not math.isfinite(value):
+        raise make_error(f"must be a finite number, got {value}", "Write a plain number such as 0.5")
+    if isinstance(value, str) and not value.strip():
+        raise make_error("is empty", "Write some text")
+    return value
+
+
+def check_range(value: float, low: float, high: float, above: bool, unit: str,
+                make_error: Callable[[str, str], Exception]) -> None:
+    """`value` must be in [low, high], or in (low, high] when `above`."""
+    unit = f" {unit}" if unit else ""
+    if above:
+        fix = f"Use a value above {low:g} and at most {high:g}{unit}"
+    else:
+        fix = f"Use a value from {low:g} to {high:g}{unit}"
+    if above and value <= low:
+        raise make_error(f"must be {'positive' if low == 0 else f'above {low:g}{unit}'}, got {value:g}", fix)
+    if value < low or value > high:
+        raise make_error(f"must be between {low:g} and {high:g}{unit}, got {value:g}", fix)
 
 
 def check_name(value: str, known: Iterable[str], what: str, make_error: Callable[[str, str], Exception]) -> str:
