@@ -8,6 +8,7 @@ thresholds. Without `subtasks`, they are derived from the first success conditio
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -131,6 +132,32 @@ def default_subtasks(condition: Condition) -> tuple[SubtaskStage, ...]:
     return (SubtaskStage(condition.objects, (grasp, condition), (0.0, 1.0), logical, k),)
 
 
+# Allowed range of each predicate parameter that is a number: (low, high, above low only, unit). A key
+# "<predicate>.<parameter>" overrides the parameter's general range for that predicate.
+PARAM_LIMITS: dict[str, tuple[float, float, bool, str]] = {
+    "distance": (0.0, 1.0, True, "m"),
+    "tolerance": (0.0, 0.5, False, "m"),
+    "margin": (0.0, 0.2, False, "m"),
+    "cone_deg": (0.0, 90.0, True, "degrees"),
+    "max_dz": (0.0, 10.0, True, "m"),
+    "max_speed": (0.0, 10.0, True, "m/s"),
+    "upright.tolerance": (0.0, math.pi, True, "rad"),
+    "on_center.tolerance": (0.0, 0.5, True, "m"),
+}
+EVENT_LIMITS: dict[str, tuple[float, float, bool, str]] = {
+    "wrong_grasp_closed": (0.0, 1.0, True, "(fraction closed)"),
+    "fully_closed": (0.0, 1.0, True, "(fraction closed)"),
+    "bump_distance": (0.0, 1.0, True, "m"),
+    "move_distance": (0.0, 5.0, True, "m"),
+    "scene_half_size": (0.0, 10.0, True, "m"),
+    "tip_angle": (0.0, math.pi, True, "rad"),
+}
+MIN_OBJECTS = {"stacked": 2}  # a stack of one object would hold from the start
+CONTAINER_REFERENCES = ("container",)  # reference fields that must name a scene object, not the table
+MAX_EPISODE_SECONDS = 3600.0
+MAX_STEP_WEIGHT = 1000.0
+
+
 def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (), objects=None) -> Condition:
     """A condition; `objects` given (subtask steps) means the field must be absent and these are used."""
     name = fields.get("predicate", str)
@@ -143,76 +170,146 @@ def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (
     fields.only(allowed)
     known = [*scene.object_names(), TABLE]
     where = f"object of scene '{scene.name}' (or 'table')"
-    params = {}
+    params: dict[str, Any] = {}
     for key, default in info.params.items():
         if isinstance(default, dict):  # a mapping of container -> objects
-            params[key] = _read_groups(fields, key, known, where)
+            params[key] = _read_groups(fields, key, scene)
+        elif isinstance(default, str):
+            params[key] = fields.choice(key, STACK_ORDERS if key == "order" else [default], default)
         else:
-            params[key] = fields.get(key, type(default), default)
+            low, high, above, unit = PARAM_LIMITS.get(f"{name}.{key}") or PARAM_LIMITS[key]
+            params[key] = fields.number(key, low, high, default, above=above, unit=unit)
     if objects is None:
-        if "groups" in params and "objects" not in fields.data:
+        if "groups" in params and not fields.has("objects"):
             objects = [member for members in params["groups"].values() for member in members]
         else:
-            objects = fields.names_in("objects", known, where)
-    if not objects:
-        raise fields.error("objects", "is empty", "Name at least one object of the scene")
+            objects = _read_objects(fields, "objects", scene)
+        if "groups" in params:
+            homes = {member for members in params["groups"].values() for member in members}
+            for index, obj in enumerate(objects):
+                if obj not in homes:
+                    raise fields.error(f"objects[{index}]", f"'{obj}' is in none of the groups",
+                                       "Add it to a group of `groups`, or leave `objects` out")  # fmt: skip
+    if len(objects) < MIN_OBJECTS.get(name, 1):
+        raise fields.error("objects", f"has {len(objects)} object(s); '{name}' needs at least {MIN_OBJECTS[name]}",
+                           "Name more objects")  # fmt: skip
     references = {}
     for key, default in info.references.items():
-        if key in fields.data or default is None:
+        if fields.has(key) or default is None:
             references[key] = fields.name_in(key, known, where)
+            if references[key] in objects:
+                raise fields.error(key, f"'{references[key]}' is also an object of this condition",
+                                   "An object cannot be its own reference; name another object")  # fmt: skip
+            if key in CONTAINER_REFERENCES and references[key] == TABLE:
+                raise fields.error(key, "the table is not a container", "Name a container object of the scene")
         else:
             references[key] = default
     logical, k = _read_logical(fields, len(objects))
-    if "order" in params and params["order"] not in STACK_ORDERS:
-        raise fields.error("order", f"'{params['order']}' is not valid", f"Use one of {', '.join(STACK_ORDERS)}")
+    contact = fields.get("require_contact_with", bool, False)
+    if contact and info.contact_reference is None:
+        raise fields.error("require_contact_with", f"'{name}' has no reference object to touch",
+                           "Leave the flag out, or use a predicate with a reference")  # fmt: skip
     return Condition(
         predicate=name,
         objects=tuple(str(o) for o in objects),
         references=references,
         logical=logical,
         k=k,
-        require_contact_with=fields.get("require_contact_with", bool, False),
+        require_contact_with=contact,
         require_gripper_detached=fields.get("require_gripper_detached", bool, False),
         params=params,
     )
+
+
+def _read_objects(fields: Fields, key: str, scene: SceneSpec) -> list[str]:
+    """A non-empty list of distinct objects of the scene (the table cannot be one: it does not move)."""
+    values = fields.get(key, list)
+    for index, value in enumerate(values):
+        if value == TABLE:
+            raise fields.error(f"{key}[{index}]", "the table cannot be moved, so it cannot be an object here",
+                               "Name objects of the scene; the table may be a reference (container, surface ...)")
+    objects = fields.names_in(key, scene.object_names(), f"object of scene '{scene.name}'")
+    if not objects:
+        raise fields.error(key, "is empty", "Name at least one object of the scene")
+    return objects
 
 
 def _read_logical(fields: Fields, count: int) -> tuple[str, int]:
     """`logical` (all / any / choose) and `k`, checked against the number of objects."""
     logical = fields.choice("logical", LOGICALS, "all")
     k = fields.get("k", int, 1)
+    if fields.has("k") and logical != "choose":
+        raise fields.error("k", f"applies only with logical: choose (this is '{logical}')",
+                           "Leave k out, or set logical: choose")  # fmt: skip
     if logical == "choose" and not 1 <= k <= count:
         raise fields.error("k", f"must be between 1 and the number of objects ({count}), got {k}")
     return logical, k
 
 
-def _read_groups(fields: Fields, key: str, known: list[str], where: str) -> dict[str, list[str]]:
+def _read_groups(fields: Fields, key: str, scene: SceneSpec) -> dict[str, list[str]]:
+    """A mapping container -> objects; every object in one group only, never in its own container."""
     groups = fields.sub(key)
-    result = {}
+    if not groups.data:
+        raise fields.error(key, "is empty", "Map at least one container to the objects that belong in it")
+    result: dict[str, list[str]] = {}
+    home: dict[str, str] = {}
     for container in groups.data:
-        check_name(str(container), known, where, lambda problem, fix: groups.error(str(container), problem, fix))
-        members = groups.names_in(container, known, where)
-        if not members:
-            raise groups.error(str(container), "is empty", "List at least one object")
+        check_name(str(container), scene.object_names(), f"container of scene '{scene.name}'",
+                   lambda problem, fix: groups.error(str(container), problem, fix))  # fmt: skip
+        members = _read_objects(groups, container, scene)
+        for index, member in enumerate(members):
+            if member == container:
+                raise groups.error(f"{container}[{index}]", f"'{member}' cannot go into itself",
+                                   "Name other objects")  # fmt: skip
+            if member in home:
+                raise groups.error(f"{container}[{index}]", f"'{member}' is also in the group of '{home[member]}'",
+                                   "Put each object in one group")  # fmt: skip
+            home[member] = container
         result[str(container)] = members
     return result
 
 
 def _read_stage(fields: Fields, scene: SceneSpec) -> SubtaskStage:
     fields.only(["objects", "logical", "k", "steps"])
-    objects = fields.names_in("objects", scene.object_names(), f"object of scene '{scene.name}'")
+    objects = _read_objects(fields, "objects", scene)
     logical, k = _read_logical(fields, len(objects))
     steps, weights = [], []
     for index, entry in enumerate(fields.get("steps", list)):
         step_fields = Fields(entry, fields.file, fields.where(f"steps[{index}]"))
         steps.append(_read_condition(step_fields, scene, extra=("weight",), objects=list(objects)))
-        weight = step_fields.get("weight", float, 1.0)
-        if weight < 0:
-            raise step_fields.error("weight", f"must not be negative, got {weight}")
-        weights.append(weight)
+        weights.append(step_fields.number("weight", 0.0, MAX_STEP_WEIGHT, 1.0))
     if not steps:
         raise fields.error("steps", "is empty", "Give at least one step")
+    if sum(weights) <= 0:
+        raise fields.error("steps", "every step has weight 0", "Give at least one step a positive weight")
     return SubtaskStage(tuple(objects), tuple(steps), tuple(weights), logical, k)
+
+
+def _read_events(fields: Fields) -> dict[str, float]:
+    """Event thresholds, each in its range; an object is bumped before it is moved."""
+    thresholds = fields.sub("events", {})
+    thresholds.only(EVENT_THRESHOLDS)
+    values = {}
+    for key, default in EVENT_THRESHOLDS.items():
+        low, high, above, unit = EVENT_LIMITS[key]
+        values[key] = thresholds.number(key, low, high, default, above=above, unit=unit)
+    if values["bump_distance"] >= values["move_distance"]:
+        key = "move_distance" if thresholds.has("move_distance") else "bump_distance"
+        raise thresholds.error(key, f"bump_distance ({values['bump_distance']:g} m) must be less than move_distance "
+                               f"({values['move_distance']:g} m)", "Make bumping the smaller displacement")
+    return values
+
+
+def _read_episode_seconds(fields: Fields) -> float:
+    """The episode length: at least one control step, at most an hour."""
+    seconds = fields.get("episode_seconds", float)
+    if seconds * CONTROL_HZ < 1:
+        raise fields.error("episode_seconds", f"{seconds:g} s is shorter than one control step (1/{CONTROL_HZ} s)",
+                           "Give the episode length in seconds; tasks take tens of seconds")  # fmt: skip
+    if seconds > MAX_EPISODE_SECONDS:
+        raise fields.error("episode_seconds", f"{seconds:g} s is more than an hour",
+                           f"Give at most {MAX_EPISODE_SECONDS:g} seconds")  # fmt: skip
+    return seconds
 
 
 def read_task(file: Path) -> TaskSpec:
@@ -239,17 +336,14 @@ def read_task(file: Path) -> TaskSpec:
     if not success:
         raise fields.error("success", "is empty", "Give at least one success condition")
     conditions = tuple(_read_condition(Fields(entry, file, f"success[{i}]"), scene) for i, entry in enumerate(success))
-    seconds = fields.get("episode_seconds", float)
-    if seconds <= 0:
-        raise fields.error("episode_seconds", f"must be positive, got {seconds}")
+    seconds = _read_episode_seconds(fields)
     stages = fields.get("subtasks", list, None)
+    if stages == []:
+        raise fields.error("subtasks", "is empty", "Give at least one stage, or leave subtasks out for the default")
     subtasks = (tuple(_read_stage(Fields(entry, file, f"subtasks[{i}]"), scene) for i, entry in enumerate(stages))
                 if stages else default_subtasks(conditions[0]))  # fmt: skip
-    contact = fields.names_in("contact_objects", scene.object_names(), f"object of scene '{scene.name}'",
-                              scene.object_names())  # fmt: skip
-    thresholds = fields.sub("events", {})
-    thresholds.only(EVENT_THRESHOLDS)
-    event_thresholds = {key: thresholds.get(key, float, default) for key, default in EVENT_THRESHOLDS.items()}
+    contact = _read_objects(fields, "contact_objects", scene) if fields.has("contact_objects") else scene.object_names()
+    event_thresholds = _read_events(fields)
     return TaskSpec(name, scene, file, seconds, tuple(attributes), texts, conditions, subtasks,
                     tuple(contact), event_thresholds)
 
