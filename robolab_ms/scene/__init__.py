@@ -15,8 +15,10 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
-from robolab_ms.catalog import COLOR_NAMES, Catalog, load_catalog
+from robolab_ms.catalog import COLOR_NAMES, Catalog, CatalogObject, load_catalog
+from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.content import Fields, content_dir, load_yaml
 from robolab_ms.errors import UnknownNameError
 
@@ -25,6 +27,12 @@ TABLE_HEIGHT = 0.75  # table top above the floor; the floor is at z = -TABLE_HEI
 SAFE_PLACEMENT = {"x": (0.25, 0.85), "y": (-0.45, 0.45)}  # where object positions may be declared
 TILT_AXES = ("x", "y")  # object-frame axes a scene may tip an object about (to lay it on its side)
 IDENTITY_QUAT = (1.0, 0.0, 0.0, 0.0)
+DEFAULT_TABLE_SIZE = (0.9, 1.2)  # x (depth, away from the robot), y (width)
+ROBOT_PEDESTAL_FRONT_X = 0.07  # the robot's pedestal reaches this far forward; the table starts in front of it
+MAX_TABLE_SIZE = (2 * (TABLE_CENTER_XY[0] - ROBOT_PEDESTAL_FRONT_X), 2.0)
+MAX_JITTER_XY = 0.1  # m
+OVERLAP_TOLERANCE = 0.001  # m: outlines may touch or overlap this much
+RESERVED_NAMES = ("table", "robot_pedestal")  # the environment's own bodies
 
 
 @dataclass(frozen=True)
@@ -61,7 +69,8 @@ class SceneSpec:
 
 
 def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
-    """Read and check a scene file against the catalog."""
+    """Read and check a scene file against the catalog: every field, and that the objects lie on the table without
+    overlapping at their nominal places (one wholly inside a container's outline may)."""
     catalog = catalog or load_catalog()
     fields = Fields(load_yaml(file), file)
     fields.only(["name", "description", "table", "objects", "jitter", "background"])
@@ -76,46 +85,69 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
     table_material = table.get("material", str, None)
     if table_material is not None:
         table.name_in("material", looks.table_materials, "table material")
-    table_color = table.get("color", str, "brown")
-    if table_color not in COLOR_NAMES:
-        raise table.error("color", f"'{table_color}' is not a known colour name", f"Use one of {', '.join(COLOR_NAMES)}")
+        for key in ("color", "rgba"):
+            if table.has(key):
+                raise table.error(key, "is given together with material, whose texture replaces the colour",
+                                  "Give either a material or a colour")  # fmt: skip
+    if table.has("color") and table.has("rgba"):
+        raise table.error("rgba", "is given together with color, which it would replace", "Give only one of them")
+    table_color = table.choice("color", COLOR_NAMES, "brown")
+    table_rgba = table.number_list("rgba", 4, [*COLOR_NAMES[table_color], 1.0], low=0.0, high=1.0)
+    table_size = table.number_list("size", 2, list(DEFAULT_TABLE_SIZE), low=0.0, high=MAX_TABLE_SIZE[1], above=True,
+                                   unit="m")  # fmt: skip
+    if table_size[0] > MAX_TABLE_SIZE[0]:
+        raise table.error("size[0]", f"the table would be {table_size[0]:g} m deep and reach the robot's pedestal",
+                          f"Keep size[0] (along x, away from the robot) at most {MAX_TABLE_SIZE[0]:g} m")  # fmt: skip
     jitter = fields.sub("jitter", {})
     jitter.only(["xy", "yaw_deg"])
+    jitter_xy = jitter.number("xy", 0.0, MAX_JITTER_XY, 0.02, unit="m")
+    jitter_yaw = math.radians(jitter.number("yaw_deg", 0.0, 180.0, 15.0, unit="degrees"))
     objects = fields.get("objects", list)
-    placements, seen = [], set()
+    if not objects:
+        raise fields.error("objects", "is empty", "Place at least one catalog object")
+    placements: list[ObjectPlacement] = []
+    seen: dict[str, int] = {}
     for index, entry in enumerate(objects):
         item = Fields(entry, file, f"objects[{index}]")
         item.only(["name", "asset", "xy", "yaw_deg", "tilt"])
         asset = item.name_in("asset", catalog.names(), "catalog object")
         name = item.get("name", str, asset)
+        if not name.replace("_", "").isalnum() or not name.isascii():
+            raise item.error("name", f"'{name}' has characters other than letters, digits and underscores",
+                             "Use a name like red_mug")  # fmt: skip
+        if name in RESERVED_NAMES:
+            raise item.error("name", f"'{name}' is the name of the environment's own {name.replace('_', ' ')}",
+                             "Give the object another name")  # fmt: skip
         if name in seen:
-            raise item.error("name", f"'{name}' is used twice in this scene", "Give each object a unique name")
-        seen.add(name)
+            raise item.error("name", f"'{name}' is used twice in this scene (also by objects[{seen[name]}])",
+                             "Give each object a unique name")  # fmt: skip
+        seen[name] = index
         xy = item.number_list("xy", 2)
         for value, axis in zip(xy, "xy"):
             low, high = SAFE_PLACEMENT[axis]
             if not low <= value <= high:
                 raise item.error("xy", f"{axis} = {value} is off the usable table", f"Keep {axis} within [{low}, {high}]")
         tilt = IDENTITY_QUAT
-        if item.data.get("tilt") is not None:
+        if item.has("tilt"):
             if not isinstance(item.data["tilt"], dict):
                 raise item.error("tilt", f"must be a mapping, got {item.data['tilt']!r}",
                                  "Write it as tilt: {axis: x, deg: 90} (axis x or y of the object, degrees)")
             tilt = read_tilt(item.sub("tilt"))
-        yaw = math.radians(item.get("yaw_deg", float, 0.0))
+        yaw = math.radians(item.number("yaw_deg", -360.0, 360.0, 0.0, unit="degrees"))
         placements.append(ObjectPlacement(name, asset, (xy[0], xy[1]), yaw, tilt))
     name = fields.get("name", str)
     if name != file.stem:
         raise fields.error("name", f"'{name}' differs from the file name '{file.stem}'", "Make them the same")
+    check_layout(fields, placements, catalog, (table_size[0], table_size[1]))
     return SceneSpec(
         name=name,
         description=fields.get("description", str, ""),
         file=file,
         objects=tuple(placements),
-        table_size=tuple(table.number_list("size", 2, [0.9, 1.2])),
-        table_rgba=tuple(table.number_list("rgba", 4, [*COLOR_NAMES[table_color], 1.0])),
-        jitter_xy=jitter.get("xy", float, 0.02),
-        jitter_yaw=math.radians(jitter.get("yaw_deg", float, 15.0)),
+        table_size=(table_size[0], table_size[1]),
+        table_rgba=tuple(table_rgba),
+        jitter_xy=jitter_xy,
+        jitter_yaw=jitter_yaw,
         background=background,
         table_material=table_material,
     )
@@ -125,12 +157,88 @@ def read_tilt(tilt: Fields) -> tuple[float, float, float, float]:
     """The quaternion of a `tilt: {axis: x|y, deg: D}` entry: D degrees about the object's own x or y axis."""
     tilt.only(["axis", "deg"])
     axis = tilt.choice("axis", TILT_AXES)
-    degrees = tilt.get("deg", float)
-    if not -180.0 <= degrees <= 180.0:
-        raise tilt.error("deg", f"{degrees} is not an angle in [-180, 180]", "Give the tilt in degrees, e.g. 90 to lay "
-                         "the object on its side")
+    if tilt.has("deg") and isinstance(tilt.data["deg"], (int, float)) and not -180 <= tilt.data["deg"] <= 180:
+        raise tilt.error("deg", f"{tilt.data['deg']} is not an angle in [-180, 180]", "Give the tilt in degrees, e.g. "
+                         "90 to lay the object on its side")  # fmt: skip
+    degrees = tilt.number("deg", -180.0, 180.0, unit="degrees")
     half = math.radians(degrees) / 2
     return (math.cos(half), math.sin(half), 0.0, 0.0) if axis == "x" else (math.cos(half), 0.0, math.sin(half), 0.0)
+
+
+def footprint(entry: CatalogObject, placement: ObjectPlacement) -> np.ndarray:
+    """The outline of an object at its nominal place seen from above: corners (K, 2) of a convex polygon in world
+    x, y, counter-clockwise."""
+    rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(placement.yaw), placement.tilt)))
+    points = _outline_points(entry) @ rotation[:2].T + np.asarray(placement.xy)
+    return points[ConvexHull(points).vertices]
+
+
+_OUTLINE_POINTS: dict[int, tuple[CatalogObject, np.ndarray]] = {}
+
+
+def _outline_points(entry: CatalogObject) -> np.ndarray:
+    """The corners of the convex hull of an object's collision points (object frame): all a footprint needs."""
+    cached = _OUTLINE_POINTS.get(id(entry))
+    if cached is None or cached[0] is not entry:
+        points = entry.points
+        cached = (entry, points[ConvexHull(points).vertices])
+        _OUTLINE_POINTS[id(entry)] = cached
+    return cached[1]
+
+
+def _overlap(a: np.ndarray, b: np.ndarray) -> float:
+    """How deep two convex polygons overlap (m); 0 or less when they are apart (separating axes)."""
+    depth = math.inf
+    for polygon in (a, b):
+        edges = np.roll(polygon, -1, axis=0) - polygon
+        normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        pa, pb = a @ normals.T, b @ normals.T
+        gaps = np.minimum(pa.max(0), pb.max(0)) - np.maximum(pa.min(0), pb.min(0))
+        depth = min(depth, float(gaps.min()))
+    return depth
+
+
+def _inside(inner: np.ndarray, outer: np.ndarray, tolerance: float) -> bool:
+    """Whether convex polygon `inner` lies within convex, counter-clockwise polygon `outer`."""
+    edges = np.roll(outer, -1, axis=0) - outer
+    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)  # outward for a counter-clockwise polygon
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return bool((inner @ normals.T <= (outer * normals).sum(1) + tolerance).all())
+
+
+def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog: Catalog,
+                 table_size: tuple[float, float]) -> None:
+    """Objects lie wholly on the table and apart at their nominal places; an object may stand wholly inside the
+    outline of a container (the simulator lifts it onto the container's floor in the first steps)."""
+    outlines = [footprint(catalog[placement.asset], placement) for placement in placements]
+    for size, default_size, axis, centre in zip(table_size, DEFAULT_TABLE_SIZE, range(2), TABLE_CENTER_XY):
+        low, high = centre - size / 2, centre + size / 2
+        for index, (placement, outline) in enumerate(zip(placements, outlines)):
+            reach = outline[:, axis].min(), outline[:, axis].max()
+            if reach[0] >= low and reach[1] <= high:
+                continue
+            letter = "xy"[axis]
+            where = f"{letter} {reach[0]:.3f}..{reach[1]:.3f} m"
+            if centre - default_size / 2 <= reach[0] and reach[1] <= centre + default_size / 2:
+                raise fields.error(f"table.size[{axis}]", f"the table ({letter} {low:.3f}..{high:.3f} m) is too small "
+                                   f"for objects[{index}] '{placement.name}' ({where})",
+                                   f"Make size[{axis}] larger or move the objects closer together")  # fmt: skip
+            raise fields.error(f"objects[{index}].xy", f"'{placement.name}' reaches past the table's edge ({where}; "
+                               f"the table spans {letter} {low:.3f}..{high:.3f} m)", "Move it further in")  # fmt: skip
+    for later in range(len(placements)):
+        for earlier in range(later):
+            depth = _overlap(outlines[earlier], outlines[later])
+            if depth <= OVERLAP_TOLERANCE:
+                continue
+            if any(catalog[placements[outer].asset].is_container
+                   and _inside(outlines[inner], outlines[outer], OVERLAP_TOLERANCE)
+                   for inner, outer in ((later, earlier), (earlier, later))):  # fmt: skip
+                continue
+            raise fields.error(f"objects[{later}].xy", f"'{placements[later].name}' overlaps objects[{earlier}] "
+                               f"'{placements[earlier].name}' by {depth * 100:.1f} cm at their nominal places",
+                               "Move them apart (leave a few centimetres for the fingers), or place the object "
+                               "wholly inside a container's outline")  # fmt: skip
 
 
 def scene_names() -> list[str]:
