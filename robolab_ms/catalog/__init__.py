@@ -5,6 +5,7 @@ The catalog is data (assets/catalog.yaml). This module reads and checks it, and 
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
@@ -16,6 +17,7 @@ import numpy as np
 from robolab_ms.catalog.meshes import hull_volume, package_file, read_hulls
 from robolab_ms.catalog.procedural import (
     GENERATORS,
+    PARAM_CHOICES,
     Part,
     Quat,
     axis_angle_quat,
@@ -24,8 +26,8 @@ from robolab_ms.catalog.procedural import (
     quat_multiply,
     quat_to_matrix,
 )
-from robolab_ms.content import Fields, content_dir, load_yaml
-from robolab_ms.errors import RoboLabError, SpecError, UnknownNameError
+from robolab_ms.content import Fields, check_kind, check_range, content_dir, load_yaml
+from robolab_ms.errors import RoboLabError, SpecError, UnknownNameError, did_you_mean
 
 if TYPE_CHECKING:
     import sapien
@@ -252,31 +254,41 @@ def collision_dir(catalog_file: Path) -> Path:
     return catalog_file.parent / "collision"
 
 
+MAX_OBJECT_SIZE = 2.0  # m, any extent of a table-top object
+MAX_MASS = 100.0  # kg
+MAX_FRICTION = 5.0
+CATALOG_VERSION = 1
+
+
 def _read_object(name: str, fields: Fields) -> CatalogObject:
     fields.only([
         "class", "description", "colors", "rgba", "mass", "friction", "restitution", "source", "license", "container",
         "interior", "dimensions", "transform", "collision",
     ])  # fmt: skip
     colors = fields.get("colors", list)
-    for color in colors:
+    for index, color in enumerate(colors):
+        check_kind(color, str, lambda problem, fix, index=index: fields.error(f"colors[{index}]", problem, fix))
         if color not in COLOR_NAMES:
-            raise fields.error("colors", f"'{color}' is not a known colour name", f"Use one of {', '.join(COLOR_NAMES)}")
+            raise fields.error(f"colors[{index}]", f"'{color}' is not a known colour name",
+                               did_you_mean(color, COLOR_NAMES))  # fmt: skip
     default_rgba = [*COLOR_NAMES[colors[0]], 1.0] if colors else None
-    rgba = fields.number_list("rgba", 4, default_rgba)
+    rgba = fields.number_list("rgba", 4, default_rgba, low=0.0, high=1.0)
     if rgba is None:
         raise fields.error("rgba", "is missing and there is no colour name to derive it from", "Add colors or rgba")
     palette = (tuple(rgba), *((*COLOR_NAMES[color], 1.0) for color in colors[1:]))
     friction = fields.sub("friction")
     friction.only(["static", "dynamic"])
-    static_friction, dynamic_friction = friction.get("static", float), friction.get("dynamic", float)
-    if not 0 <= dynamic_friction <= static_friction:
+    static_friction = friction.positive("static", MAX_FRICTION)
+    dynamic_friction = friction.number("dynamic", 0.0, MAX_FRICTION)
+    if dynamic_friction > static_friction:
         raise friction.error("dynamic", f"must be between 0 and static ({static_friction}), got {dynamic_friction}")
-    mass = fields.get("mass", float)
-    if mass <= 0:
-        raise fields.error("mass", f"must be positive, got {mass}")
+    mass = fields.positive("mass", MAX_MASS, unit="kg")
     is_container = fields.get("container", bool, False)
-    interior = fields.number_list("interior", 3, None)
-    dimensions = fields.number_list("dimensions", 3, None)
+    interior = fields.number_list("interior", 3, None, low=0.0, high=MAX_OBJECT_SIZE, above=True, unit="m")
+    if interior is not None and not is_container:
+        raise fields.error("interior", "is given for an object that is not a container",
+                           "Set container: true, or leave interior out")  # fmt: skip
+    dimensions = fields.number_list("dimensions", 3, None, low=0.0, high=MAX_OBJECT_SIZE, above=True, unit="m")
     collision = fields.sub("collision", {})
     collision.only(["method", "file"])
     source = fields.sub("source")
@@ -287,11 +299,12 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     if kind == "procedural":
         source.only(["kind", "generator", "params"])
         generator = source.choice("generator", GENERATORS)
-        params = source.get("params", dict, {})
+        params = _read_generator_params(source.sub("params", {}), generator)
         try:
             parts = generate(generator, params)
-        except TypeError as error:
+        except (TypeError, ValueError, ArithmeticError) as error:
             raise source.error("params", f"do not fit generator '{generator}' ({error})") from None
+        _check_parts(source, parts)
         if is_container and interior is None:
             interior = procedural_interior(generator, params)
         method = collision.choice("method", ["primitives"], "primitives")
@@ -299,8 +312,10 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     else:
         source.only(MESH_SOURCE_FIELDS)
         paths = source.get("paths", list)
-        if not paths or not all(isinstance(path, str) for path in paths):
-            raise source.error("paths", "must be a non-empty list of file paths inside the package")
+        if not paths:
+            raise source.error("paths", "is empty", "List the mesh files inside the package")
+        for index, path in enumerate(paths):
+            check_kind(path, str, lambda problem, fix, index=index: source.error(f"paths[{index}]", problem, fix))
         source_record = {
             "kind": kind, "package": source.get("package", str), "paths": paths,
             "textured": source.get("textured", bool, False), "collision_pieces": source.get("collision_pieces", str, ""),
@@ -312,21 +327,19 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         collision_file = collision_dir(fields.file) / collision.get("file", str, f"{name}.obj")
         spec = fields.sub("transform", {})
         spec.only(["scale", "rotation_deg", "translation"])
-        scale = spec.data.get("scale", 1.0)
-        scale_xyz = [float(scale)] * 3 if isinstance(scale, (int, float)) else spec.number_list("scale", 3)
-        if min(scale_xyz) <= 0:
-            raise spec.error("scale", f"must be positive, got {scale}")
+        if isinstance(spec.data.get("scale"), list):
+            scale_xyz = spec.number_list("scale", 3, low=0.0, high=1000.0, above=True)
+        else:
+            scale_xyz = [spec.positive("scale", 1000.0, 1.0)] * 3
         transform = MeshTransform(
             scale=tuple(scale_xyz),
-            rotation_deg=tuple(spec.number_list("rotation_deg", 3, [0.0, 0.0, 0.0])),
-            translation=tuple(spec.number_list("translation", 3, [0.0, 0.0, 0.0])),
+            rotation_deg=tuple(spec.number_list("rotation_deg", 3, [0.0, 0.0, 0.0], low=-360.0, high=360.0)),
+            translation=tuple(spec.number_list("translation", 3, [0.0, 0.0, 0.0], low=-1.0, high=1.0, unit="m")),
         )
         if dimensions is None:
             raise fields.error("dimensions", "is missing for a mesh object", "Run 'robolab catalog build' to fill it in")
     if is_container and interior is None:
         raise fields.error("interior", "is missing for a container", "Give the inner size [x, y, z] in metres")
-    if dimensions is not None and min(dimensions) <= 0:
-        raise fields.error("dimensions", f"must be positive, got {dimensions}")
     return CatalogObject(
         name=name,
         object_class=fields.choice("class", OBJECT_CLASSES),
@@ -336,7 +349,7 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         mass=mass,
         static_friction=static_friction,
         dynamic_friction=dynamic_friction,
-        restitution=fields.get("restitution", float, 0.0),
+        restitution=fields.number("restitution", 0.0, 1.0, 0.0),
         source=source_record,
         license=fields.get("license", str),
         is_container=is_container,
@@ -350,15 +363,74 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     )
 
 
+GENERATOR_PARAM_LIMITS = {"bend_deg": (0.0, 360.0), "segments": (3, 64), "levels": (1, 20)}
+
+
+def _read_generator_params(params: Fields, generator: str) -> dict[str, Any]:
+    """A procedural generator's parameters, checked against its signature: names, types and ranges (lengths in m
+    up to MAX_OBJECT_SIZE; a length whose default is 0 may be 0, meaning none)."""
+    signature = inspect.signature(GENERATORS[generator]).parameters
+    for key in params.data:
+        if key not in signature:
+            raise params.error(str(key), f"is not a parameter of generator '{generator}'", did_you_mean(str(key), signature))
+    values: dict[str, Any] = {}
+    for key, parameter in signature.items():
+        default = parameter.default
+        if not params.has(key):
+            if default is inspect.Parameter.empty:
+                raise params.error(key, f"is missing (generator '{generator}' needs it)", "Add it")
+            continue
+        annotation = str(parameter.annotation)
+        if annotation == "bool":
+            values[key] = params.get(key, bool)
+        elif annotation == "str":
+            choices = PARAM_CHOICES.get(key)
+            values[key] = params.choice(key, choices) if choices else params.get(key, str)
+        elif annotation == "int":
+            low, high = GENERATOR_PARAM_LIMITS[key]
+            value = params.get(key, int)
+            check_range(value, low, high, False, "", lambda problem, fix, key=key: params.error(key, problem, fix))
+            values[key] = value
+        elif annotation == "list[float]":
+            values[key] = params.number_list(key, 3, low=0.0, high=MAX_OBJECT_SIZE, above=True, unit="m")
+        else:
+            low, high = GENERATOR_PARAM_LIMITS.get(key, (0.0, MAX_OBJECT_SIZE))
+            values[key] = params.number(key, low, high, above=default != 0.0)
+    return values
+
+
+def _check_parts(source: Fields, parts: list[Part]) -> None:
+    """The generated primitives have positive, finite sizes and the object fits on a table."""
+    if not parts:
+        raise source.error("params", "make no parts", "Check the parameters")
+    for part in parts:
+        numbers = np.array([*part.size, *part.position, *part.rotation], dtype=float)
+        if not np.isfinite(numbers).all() or min(part.size) <= 0:
+            raise source.error("params", f"make a {part.shape} part of size {part.size}, which is not positive",
+                               "Check that the parameters fit together (for example a length longer than the head)")
+    extent = np.max([np.asarray(p.position) + p.half_extent() for p in parts], 0) - np.min(
+        [np.asarray(p.position) - p.half_extent() for p in parts], 0)  # fmt: skip
+    if extent.max() > MAX_OBJECT_SIZE:
+        raise source.error("params", f"make an object {extent.max():.2f} m across",
+                           f"Keep objects within {MAX_OBJECT_SIZE} m")  # fmt: skip
+
+
 def read_catalog(file: Path) -> Catalog:
     """Read and check a catalog file."""
     data = Fields(load_yaml(file), file)
     data.only(["version", "objects"])
+    version = data.get("version", int, CATALOG_VERSION)
+    if version != CATALOG_VERSION:
+        raise data.error("version", f"{version} is not a catalog version this robolab_ms reads",
+                         f"Write version: {CATALOG_VERSION}")  # fmt: skip
     entries = data.sub("objects")
+    if not entries.data:
+        raise data.error("objects", "is empty", "Add at least one object")
     objects = {}
     for name in entries.data:
-        if not isinstance(name, str) or not name.replace("_", "").isalnum():
-            raise SpecError(file, f"objects.{name}", "object names must be letters, digits and underscores")
+        if not isinstance(name, str) or not name.replace("_", "").isalnum() or not name.isascii():
+            raise SpecError(file, f"objects.{name}", "object names must be letters, digits and underscores",
+                            "Rename it, e.g. red_mug")  # fmt: skip
         objects[name] = _read_object(name, entries.sub(name))
     return Catalog(objects, file)
 

@@ -109,6 +109,10 @@ def quat_multiply(a: Quat, b: Quat) -> Quat:
 
 
 X_TO_Z: Quat = axis_angle_quat((0, 1, 0), -math.pi / 2)  # turns a part's x axis to the object's z axis
+PARAM_CHOICES = {  # the values a generator's text parameter may take
+    "handle": ("none", "side", "long", "pair"),
+    "head": ("spoon", "fork", "ladle", "spatula", "knife"),
+}
 
 # ---------------------------------------------------------------------------------------------------- generators
 
@@ -254,7 +258,7 @@ def cup(top_radius: float, bottom_radius: float, height: float, wall: float = 0.
             parts.append(Part("box", (0.015, 0.025, grip / 2),
                               (sign * (top_radius + 0.012), 0.0, height - grip), IDENTITY, 1))  # fmt: skip
     elif handle != "none":
-        raise TypeError(f"handle must be none, side, long or pair, got {handle!r}")
+        raise TypeError(f"handle must be one of {', '.join(PARAM_CHOICES['handle'])}, got {handle!r}")
     return parts
 
 
@@ -292,7 +296,7 @@ def utensil(length: float, head: str, head_size: float, handle_width: float = 0.
         width = head_size if head == "spatula" else head_size * 0.5
         parts.append(Part("box", (head_length / 2, width / 2, thickness / 4), (centre, 0.0, thickness / 4), IDENTITY, 1))
     else:
-        raise TypeError(f"head must be spoon, fork, ladle, spatula or knife, got {head!r}")
+        raise TypeError(f"head must be one of {', '.join(PARAM_CHOICES['head'])}, got {head!r}")
     return parts
 
 
