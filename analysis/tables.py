@@ -1,4 +1,13 @@
-"""Results tables derived from episode lines: success rate with its 95 % interval, score and Score(fail)."""
+"""Results tables derived from episode lines: success rate with its 95 % interval, score and Score(fail),
+trajectory metrics and event counts (mean and standard deviation over episodes), and one CSV per task.
+
+Files written by `write_summary` into a results folder:
+- `summary.csv`: one row per (policy, robot, task, instruction variant) and an `ALL` row per policy and robot;
+  metric columns `<name>` (mean, episodes where the metric is undefined left out) and `<name>_sd`; event columns
+  `<event type>` (mean count per episode) and `<event type>_sd`.
+- `summary.md`: the same as three Markdown tables (outcomes, trajectory, events), numbers as mean +- sd.
+- `tasks/<Task>.csv`: every episode of the task, one row each, with its metrics, event counts and files.
+"""
 
 from __future__ import annotations
 
@@ -9,10 +18,28 @@ from pathlib import Path
 import pandas as pd
 from scipy.stats import beta
 
+from robolab_ms.eval.metrics import event_tallies
 from robolab_ms.eval.results import EpisodeResult
+from robolab_ms.tasks.events import EVENT_TYPES
 
 SUMMARY_CSV = "summary.csv"
 SUMMARY_MD = "summary.md"
+TASKS_DIR = "tasks"
+KEYS = ["policy", "robot", "task", "instruction_variant"]
+# (metric key in a result line, table column, factor): lengths and speeds are shown in cm and cm/s, like RoboLab
+METRIC_COLUMNS = (
+    ("ee_sparc", "ee_sparc", 1.0),
+    ("joint_sparc", "joint_sparc", 1.0),
+    ("ee_jerk", "ee_jerk_m2_s5", 1.0),
+    ("joint_jerk", "joint_jerk_rad2_s5", 1.0),
+    ("ee_path_length", "ee_path_cm", 100.0),
+    ("ee_speed_mean", "ee_speed_mean_cm_s", 100.0),
+    ("ee_speed_max", "ee_speed_max_cm_s", 100.0),
+    ("joint_tracking_rmse", "joint_tracking_rmse_rad", 1.0),
+    ("joint_tracking_max", "joint_tracking_max_rad", 1.0),
+)
+OUTCOME_COLUMNS = ("episodes", "success_%", "success_ci95_low_%", "success_ci95_high_%", "score", "score_fail",
+                   "progress", "mean_steps", "errors")  # fmt: skip
 
 
 def success_interval(successes: int, episodes: int, level: float = 0.95) -> tuple[float, float]:
@@ -39,15 +66,47 @@ def _summary_row(frame: pd.DataFrame) -> dict:
         "progress": frame["progress"].mean(),
         "mean_steps": frame["steps"].mean(),
         "errors": int(frame["error"].notna().sum()),
+        **_spread(frame, [column for _, column, _ in METRIC_COLUMNS]),
+        **_spread(frame, list(EVENT_TYPES)),
     }
+
+
+def _spread(frame: pd.DataFrame, columns: list[str]) -> dict[str, float]:
+    """Mean and standard deviation of each column, NaN left out (sd is NaN with fewer than two values)."""
+    row = {}
+    for column in columns:
+        values = pd.to_numeric(frame[column], errors="coerce").dropna() if column in frame else pd.Series(dtype=float)
+        row[column] = float(values.mean()) if len(values) else float("nan")
+        row[f"{column}_sd"] = float(values.std(ddof=1)) if len(values) > 1 else float("nan")
+    return row
+
+
+def episode_frame(results: Sequence[EpisodeResult]) -> pd.DataFrame:
+    """One row per episode: the result fields, one column per metric (table units) and per event type (count),
+    and `objects_<event type>` listing the objects an object event fired for."""
+    rows = []
+    for result in results:
+        row = {key: value for key, value in asdict(result).items() if key not in ("metrics", "event_counts",
+                                                                               "event_objects", "events")}  # fmt: skip
+        for key, column, factor in METRIC_COLUMNS:
+            value = (result.metrics or {}).get(key)
+            row[column] = float("nan") if value is None else float(value) * factor
+        counts, objects = event_tallies(result.events)  # from the ordered list: older lines have no tallies
+        for kind in EVENT_TYPES:
+            row[kind] = counts.get(kind, 0)
+        for kind, names in objects.items():
+            row[f"objects_{kind}"] = ";".join(names)
+        row["events"] = len(result.events)
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
 def summarize(results: Sequence[EpisodeResult]) -> pd.DataFrame:
     """One row per (policy, robot, task, instruction variant), then one 'ALL' row per policy and robot."""
     if not results:
         return pd.DataFrame()
-    frame = pd.DataFrame([asdict(r) for r in results])
-    keys = ["policy", "robot", "task", "instruction_variant"]
+    frame = episode_frame(results)
+    keys = KEYS
     rows = [{**dict(zip(keys, key)), **_summary_row(group)} for key, group in frame.groupby(keys, sort=True)]
     for (policy, robot), group in frame.groupby(["policy", "robot"], sort=True):
         rows.append({"policy": policy, "robot": robot, "task": "ALL", "instruction_variant": "all",
@@ -73,9 +132,54 @@ def to_markdown(table: pd.DataFrame) -> str:
     return "\n".join([header, rule, *lines]) + "\n"
 
 
+def _mean_sd(table: pd.DataFrame, column: str, digits: int) -> pd.Series:
+    def show(row: pd.Series) -> str:
+        mean, sd = row[column], row[f"{column}_sd"]
+        if pd.isna(mean):
+            return "-"
+        return f"{mean:.{digits}f}" + ("" if pd.isna(sd) else f" ± {sd:.{digits}f}")
+
+    return table.apply(show, axis=1)
+
+
+def summary_markdown(table: pd.DataFrame) -> str:
+    """The summary as Markdown: outcomes, trajectory metrics and events (mean ± sd over episodes)."""
+    if table.empty:
+        return "_no episodes yet_\n"
+    keys = table[KEYS]
+    outcomes = pd.concat([keys, table[list(OUTCOME_COLUMNS)]], axis=1)
+    trajectory = keys.copy()
+    for _, column, _ in METRIC_COLUMNS:
+        trajectory[column] = _mean_sd(table, column, 3 if "jerk" not in column else 1)
+    events = keys.copy()
+    for kind in EVENT_TYPES:
+        if table[kind].fillna(0).any():
+            events[kind] = _mean_sd(table, kind, 2)
+    parts = ["## Outcomes\n", to_markdown(outcomes), "\n## Trajectory (mean ± sd over episodes; SPARC: closer to 0 is "
+             "smoother)\n", to_markdown(trajectory), "\n## Events (count per episode, mean ± sd)\n"]  # fmt: skip
+    parts.append(to_markdown(events) if len(events.columns) > len(KEYS) else "_no events_\n")
+    return "".join(parts)
+
+
+def write_task_csvs(results: Sequence[EpisodeResult], out_dir: Path) -> list[Path]:
+    """Write `tasks/<Task>.csv` (one row per episode) for every task in `results`; returns the files."""
+    frame = episode_frame(results)
+    if frame.empty:
+        return []
+    folder = Path(out_dir) / TASKS_DIR
+    folder.mkdir(parents=True, exist_ok=True)
+    files = []
+    for task, group in frame.groupby("task", sort=True):
+        path = folder / f"{task}.csv"
+        group.sort_values(["policy", "robot", "instruction_variant", "seed"]).to_csv(path, index=False)
+        files.append(path)
+    return files
+
+
 def write_summary(results: Sequence[EpisodeResult], out_dir: Path) -> pd.DataFrame:
-    """Write summary.csv and summary.md into `out_dir`; returns the table."""
+    """Write summary.csv, summary.md and the per-task CSVs into `out_dir`; returns the summary table."""
     table = summarize(results)
     table.to_csv(Path(out_dir) / SUMMARY_CSV, index=False)
-    (Path(out_dir) / SUMMARY_MD).write_text(to_markdown(table), encoding="utf-8")
+    (Path(out_dir) / SUMMARY_MD).write_text(summary_markdown(table), encoding="utf-8")
+    write_task_csvs(results, out_dir)
     return table

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +35,19 @@ class EpisodeResult:
     wall_seconds: float
     error: str | None = None
     events: list[dict[str, Any]] = field(default_factory=list)
-    metrics: dict[str, float] = field(default_factory=dict)
+    metrics: dict[str, float | None] = field(default_factory=dict)  # eval.metrics.METRIC_KEYS; None = not defined
+    event_counts: dict[str, int] = field(default_factory=dict)  # event type -> how often it fired
+    event_objects: dict[str, list[str]] = field(default_factory=dict)  # object event type -> objects it fired for
+    recording: str | None = None  # the episode's trajectory file (.h5, next to its .json), relative to the folder
+    video: str | None = None  # the episode's mp4, relative to the results folder
+    endpoint: str | None = None  # where the policy ran: in-process, ws://host:port, tcp://host:port, module:factory
+    policy_metadata: dict[str, Any] = field(default_factory=dict)  # what the policy (its server) says about itself
+    queries: int = 0  # times the policy was asked (a remote policy: once per executed chunk)
+    inference_ms_mean: float | None = None  # time per query, as the runner sees it (round trip for a server)
+    inference_ms_p95: float | None = None
+    env_step_ms: float | None = None  # mean time of one env step (physics, task logic, cameras)
+    steps_per_second: float | None = None  # control steps per second of wall time, reset included
+    clipped_steps: int = 0  # steps whose arm joint targets were outside the robot's limits and were clipped
     version: int = RESULTS_VERSION
 
     def key(self) -> tuple:
@@ -65,14 +77,18 @@ def _ends_with_newline(path: Path) -> bool:
 
 
 def read_results(out_dir: Path) -> list[EpisodeResult]:
-    """All complete episode lines of a results folder (partial or foreign lines are skipped)."""
+    """All complete episode lines of a results folder (partial or foreign lines are skipped). When an episode
+    has several lines (an errored one run again with --retry-errors), the last one counts."""
     path = Path(out_dir) / EPISODES_FILE
     if not path.exists():
         return []
-    results = []
+    known = {f.name for f in fields(EpisodeResult)}
+    results: dict[tuple, EpisodeResult] = {}
     for line in path.read_text(encoding="utf-8").splitlines():
         try:
-            results.append(EpisodeResult(**json.loads(line)))
-        except (json.JSONDecodeError, TypeError):
+            record = json.loads(line)
+            result = EpisodeResult(**{k: v for k, v in record.items() if k in known})
+        except (json.JSONDecodeError, TypeError, AttributeError):
             continue
-    return results
+        results[result.key()] = result
+    return list(results.values())

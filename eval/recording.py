@@ -1,0 +1,316 @@
+"""What an episode leaves behind besides its result line: trajectory metrics and event tallies (always), a
+ManiSkill trajectory file (`--record`, `--record-images`) and an mp4 (`--video`).
+
+The runner drives one `EpisodeRecorder` per environment with four calls: `on_reset` after `env.reset`, `on_step`
+after each `env.step`, `finish` when the episode is over (its return value goes into the `EpisodeResult`), and
+`close` when the run ends. Everything is read from environment 0 of the batch.
+
+Recording layout (one pair of files per episode, so parallel workers never share a file):
+
+    OUT/recordings/<Task>/<variant>-<robot>-<policy>-seed<N>.h5 / .json   ManiSkill's trajectory format
+    OUT/videos/<Task>/<variant>-<robot>-<policy>-seed<N>.mp4
+
+The .json holds `env_info` (`env_id`, `env_kwargs`, `max_episode_steps`: enough for `gym.make`), `source_type`,
+`source_desc`, one entry in `episodes` (`episode_id` 0, `episode_seed`, `reset_kwargs`, `control_mode`,
+`elapsed_steps` T, `success`) and a `robolab` block (task, instruction variant and text, robot, policy, seed,
+control_hz, cameras, arm joint names, score, progress, events, error, layout_version). The .h5 holds group
+`traj_0` with, for T control steps:
+
+| dataset | shape | what |
+|---|---|---|
+| `actions` | (T, 8) float32 | what the policy sent: 7 arm joint targets (rad) + gripper (0 open, 1 closed) |
+| `terminated`, `truncated`, `success` | (T,) bool | after each step |
+| `env_states/...` | (T + 1, D) float32 | `env.get_state_dict()` at reset and after each step (replay / set_state_dict) |
+| `obs/agent/qpos` | (T + 1, dof) float32 | every robot joint, gripper joints included |
+| `obs/extra/tcp_pose` | (T + 1, 7) float32 | end-effector pose, position + quaternion (w, x, y, z) |
+| `obs/extra/gripper_position` | (T + 1, 1) float32 | gripper closed fraction, 0 open .. 1 closed |
+| `obs/sensor_data/<camera>/rgb` | (T + 1, H, W, 3) uint8 | policy camera images (`--record-images` only; gzip) |
+| `robolab/joint_position` | (T + 1, 7) float32 | arm joint positions (rad), DROID's proprio with `gripper_position` |
+| `robolab/score`, `robolab/progress` | (T,) float32 | task score and subtask progress after each step |
+
+Row t of the (T + 1) arrays is what the policy observed before action t; row T is the final state. Files are
+written under `*.partial` names and renamed when complete.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robolab_ms.eval.metrics import event_tallies, trajectory_metrics
+
+RECORDINGS_DIR = "recordings"
+VIDEOS_DIR = "videos"
+LAYOUT_VERSION = 1
+TRAJECTORY_KEY = "traj_0"
+
+
+@dataclass(frozen=True)
+class RecordOptions:
+    """What to keep of each episode besides metrics and events."""
+
+    trajectory: bool = False  # ManiSkill trajectory file: actions, env states, proprio, task signals
+    images: bool = False  # also the policy cameras' images in the trajectory file (implies trajectory)
+    video: bool = False  # an mp4 per episode
+
+    @property
+    def writes_file(self) -> bool:
+        return self.trajectory or self.images
+
+
+def episode_stem(variant: str, robot: str, policy: str, seed: int) -> str:
+    """The file name (no extension) of an episode's recording and video inside its task's folder.
+
+    Characters other than letters, digits, `_` and `-` become `_` (ManiSkill's tools split file names at dots)."""
+    return re.sub(r"[^A-Za-z0-9_-]", "_", f"{variant}-{robot}-{policy}-seed{seed}")
+
+
+def _numpy(value: Any) -> np.ndarray:
+    if hasattr(value, "detach"):
+        value = value.detach().cpu().numpy()
+    return np.asarray(value)
+
+
+def camera_views(base: Any, observation: Any = None) -> dict[str, np.ndarray]:
+    """RGB images (H, W, 3) uint8 of the policy cameras in environment 0: taken from the observation when it
+    carries them, otherwise rendered (colour only)."""
+    sensor_data = observation.get("sensor_data") if isinstance(observation, dict) else None
+    if sensor_data and all("rgb" in data for data in sensor_data.values()):
+        return {name: _numpy(data["rgb"])[0] for name, data in sensor_data.items()}
+    from mani_skill.sensors.camera import Camera
+
+    base.scene.update_render(update_sensors=True, update_human_render_cameras=False)
+    views = {}
+    for name, sensor in base.scene.sensors.items():
+        if isinstance(sensor, Camera):
+            sensor.capture()
+            views[name] = _numpy(sensor.get_obs(rgb=True, depth=False, position=False, segmentation=False)["rgb"])[0]
+    return views
+
+
+def _flat_state(state: dict) -> dict[str, np.ndarray]:
+    """A nested state dict of (1, D) tensors as {'a/b': (D,) array}."""
+    flat = {}
+    for key, value in state.items():
+        if isinstance(value, dict):
+            flat.update({f"{key}/{inner}": array for inner, array in _flat_state(value).items()})
+        else:
+            flat[key] = _numpy(value)[0]
+    return flat
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    return value
+
+
+class EpisodeRecorder:
+    """Collects one episode at a time from `env` and writes what `options` asks for under `out_dir`."""
+
+    def __init__(self, env: Any, out_dir: Path, options: RecordOptions, policy: str) -> None:
+        from robolab_ms.tasks.spec import CONTROL_HZ
+
+        self.env, self.base = env, env.unwrapped
+        self.out_dir, self.options, self.policy = Path(out_dir), options, policy
+        self.rate_hz = CONTROL_HZ
+        low, high = self.base.single_action_space.low, self.base.single_action_space.high
+        self.arm_dims = len(self.base.robot.arm_joints)
+        self.arm_low, self.arm_high = low[: self.arm_dims], high[: self.arm_dims]
+        self.video = None
+        if options.video:
+            from robolab_ms.eval.video import EpisodeVideo
+
+            self.video = EpisodeVideo(fps=CONTROL_HZ)
+        self._h5 = None
+        self._started = False
+
+    # ------------------------------------------------------------------------------------------------ episode
+    def on_reset(self, seed: int, observation: Any, info: dict | None = None, max_steps: int | None = None) -> None:
+        """Start an episode (call right after `env.reset(seed=seed)`)."""
+        self._abandon_file()
+        base = self.base
+        self.seed, self.max_steps = int(seed), int(max_steps or 0)
+        self.stem = episode_stem(base.instruction_variant, base.robot.uid, self.policy, seed)
+        self.ee, self.arm, self.qpos, self.gripper = [], [], [], []
+        self.actions, self.success, self.score, self.progress, self.terminated, self.truncated = [], [], [], [], [], []
+        self.states: list[dict[str, np.ndarray]] = []
+        self._started = True
+        self._read_robot()
+        if self.options.writes_file:
+            self._open_file()
+            self.states.append(_flat_state(base.get_state_dict()))
+        views = camera_views(base, observation) if (self.options.images or self.video) else {}
+        if self.options.images:
+            self._append_images(views)
+        if self.video is not None:
+            self.video.begin(self.video_path())
+            self._add_video_frame(views, 0, info or {})
+
+    def on_step(self, action: Any, observation: Any, info: dict, terminated: Any = False, truncated: Any = False) -> None:
+        """Record one control step (call right after `env.step(action)`)."""
+        if not self._started:
+            return
+        base = self.base
+        self.actions.append(np.asarray(_numpy(action), dtype=np.float32).reshape(-1))
+        self.success.append(bool(_numpy(info.get("success", [False])).reshape(-1)[0]))
+        self.score.append(float(_numpy(info.get("score", [0.0])).reshape(-1)[0]))
+        self.progress.append(float(_numpy(info.get("progress", [0.0])).reshape(-1)[0]))
+        self.terminated.append(bool(_numpy(terminated).reshape(-1)[0]))
+        self.truncated.append(bool(_numpy(truncated).reshape(-1)[0]))
+        self._read_robot()
+        if self.options.writes_file:
+            self.states.append(_flat_state(base.get_state_dict()))
+        views = camera_views(base, observation) if (self.options.images or self.video) else {}
+        if self.options.images:
+            self._append_images(views)
+        if self.video is not None:
+            self._add_video_frame(views, len(self.actions), info)
+
+    def finish(self, info: dict | None = None, error: str | None = None) -> dict[str, Any]:
+        """End the episode: the `EpisodeResult` fields `metrics`, `event_counts`, `event_objects`, `recording`
+        and `video` (paths relative to the results folder)."""
+        info = info or {}
+        events = list(info["events"][0]) if "events" in info else []
+        counts, objects = event_tallies(events)
+        extras: dict[str, Any] = {"event_counts": counts, "event_objects": objects}
+        if not self._started:
+            return extras
+        self._started = False
+        targets = np.clip(np.asarray(self.actions, dtype=np.float64).reshape(len(self.actions), -1)[:, : self.arm_dims],
+                          self.arm_low, self.arm_high)  # fmt: skip
+        metrics = trajectory_metrics(np.asarray(self.ee)[:, :3], np.asarray(self.arm), targets, self.rate_hz)
+        extras["metrics"] = {key: (None if math.isnan(value) else round(value, 6)) for key, value in metrics.items()}
+        if self.options.writes_file:
+            self._write_file(info, events, error)
+            extras["recording"] = self.recording_path().relative_to(self.out_dir).as_posix()
+        if self.video is not None:
+            self.video.end()
+            extras["video"] = self.video_path().relative_to(self.out_dir).as_posix()
+        return extras
+
+    def close(self) -> None:
+        """Finish pending videos (waits for the encoder) and drop an unfinished episode's partial file."""
+        self._abandon_file()
+        if self.video is not None:
+            self.video.close()
+
+    # ------------------------------------------------------------------------------------------------ paths
+    def recording_path(self) -> Path:
+        return self.out_dir / RECORDINGS_DIR / self.base.task_spec.name / f"{self.stem}.h5"
+
+    def video_path(self) -> Path:
+        return self.out_dir / VIDEOS_DIR / self.base.task_spec.name / f"{self.stem}.mp4"
+
+    # ------------------------------------------------------------------------------------------------ internals
+    def _read_robot(self) -> None:
+        base = self.base
+        self.ee.append(_numpy(base.tcp_pose().raw_pose)[0].astype(np.float32))
+        self.qpos.append(_numpy(base.agent.robot.get_qpos())[0].astype(np.float32))
+        self.arm.append(_numpy(base.arm_qpos())[0].astype(np.float32))
+        self.gripper.append(float(_numpy(base.gripper_closed_fraction()).reshape(-1)[0]))
+
+    def _add_video_frame(self, views: dict[str, np.ndarray], step: int, info: dict) -> None:
+        from robolab_ms.eval.video import Caption
+
+        events = list(info["events"][0]) if "events" in info else []
+        caption = Caption(self.base.instruction, step, self.max_steps, self.score[-1] if self.score else 0.0,
+                          bool(self.success and self.success[-1]), tuple(events))  # fmt: skip
+        self.video.add(views, _numpy(self.base.render_rgb_array())[0], caption)
+
+    def _open_file(self) -> None:
+        import h5py
+
+        path = self.recording_path()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self._partial = path.with_name(path.name + ".partial")
+        self._h5 = h5py.File(self._partial, "w")
+        self._group = self._h5.create_group(TRAJECTORY_KEY, track_order=True)
+
+    def _append_images(self, views: dict[str, np.ndarray]) -> None:
+        for name, image in views.items():
+            key = f"obs/sensor_data/{name}/rgb"
+            if key not in self._group:
+                self._group.create_dataset(key, shape=(0, *image.shape), maxshape=(None, *image.shape),
+                                           chunks=(1, *image.shape), dtype=np.uint8, compression="gzip",
+                                           compression_opts=5)  # fmt: skip
+            dataset = self._group[key]
+            dataset.resize(dataset.shape[0] + 1, axis=0)
+            dataset[-1] = image
+
+    def _abandon_file(self) -> None:
+        if self._h5 is not None:
+            self._h5.close()
+            self._h5 = None
+            Path(self._partial).unlink(missing_ok=True)
+
+    def _write_file(self, info: dict, events: list, error: str | None) -> None:
+        group, steps = self._group, len(self.actions)
+        action_dims = self.base.single_action_space.shape[0]
+        actions = np.asarray(self.actions, dtype=np.float32).reshape(steps, action_dims)
+        group.create_dataset("actions", data=actions)
+        group.create_dataset("terminated", data=np.asarray(self.terminated, dtype=bool))
+        group.create_dataset("truncated", data=np.asarray(self.truncated, dtype=bool))
+        group.create_dataset("success", data=np.asarray(self.success, dtype=bool))
+        for key in self.states[0]:
+            group.create_dataset(f"env_states/{key}", data=np.stack([state[key] for state in self.states]))
+        group.create_dataset("obs/agent/qpos", data=np.asarray(self.qpos, dtype=np.float32))
+        group.create_dataset("obs/extra/tcp_pose", data=np.asarray(self.ee, dtype=np.float32))
+        group.create_dataset("obs/extra/gripper_position", data=np.asarray(self.gripper, dtype=np.float32)[:, None])
+        group.create_dataset("robolab/joint_position", data=np.asarray(self.arm, dtype=np.float32))
+        group.create_dataset("robolab/score", data=np.asarray(self.score, dtype=np.float32))
+        group.create_dataset("robolab/progress", data=np.asarray(self.progress, dtype=np.float32))
+        self._h5.close()
+        self._h5 = None
+        path = self.recording_path()
+        os.replace(self._partial, path)
+        json_path = path.with_suffix(".json")
+        partial_json = json_path.with_name(json_path.name + ".partial")
+        partial_json.write_text(json.dumps(_jsonable(self._metadata(info, events, error)), indent=2), encoding="utf-8")
+        os.replace(partial_json, json_path)
+
+    def _metadata(self, info: dict, events: list, error: str | None) -> dict[str, Any]:
+        base, spec = self.base, self.base.task_spec
+        kwargs = dict(base.spec.kwargs) if base.spec is not None else {}
+        kwargs.pop("task", None)  # the env id names the task; the registered value may be a path of this machine
+        success = bool(self.success[-1]) if self.success else False
+        return {
+            "env_info": {"env_id": spec.env_id, "env_kwargs": kwargs, "max_episode_steps": spec.max_episode_steps},
+            "source_type": "robolab eval",
+            "source_desc": f"robolab_ms evaluation of policy {self.policy}",
+            "episodes": [{
+                "episode_id": 0, "episode_seed": self.seed, "reset_kwargs": {"seed": self.seed, "options": {}},
+                "control_mode": base.control_mode, "elapsed_steps": len(self.actions), "success": success,
+            }],  # fmt: skip
+            "robolab": {
+                "layout_version": LAYOUT_VERSION,
+                "task": spec.name,
+                "instruction_variant": base.instruction_variant,
+                "instruction": base.instruction,
+                "robot": base.robot.uid,
+                "policy": self.policy,
+                "seed": self.seed,
+                "control_hz": self.rate_hz,
+                "max_steps": self.max_steps,
+                "cameras": list(base.camera_names),
+                "arm_joints": list(base.robot.arm_joints),
+                "success": success,
+                "score": self.score[-1] if self.score else 0.0,
+                "progress": self.progress[-1] if self.progress else 0.0,
+                "events": events,
+                "error": error,
+            },
+        }
