@@ -27,9 +27,11 @@ $(DEPS_STAMP): requirements.lock
 	$(BIN)/python -m pip install --quiet -r requirements.lock
 	@touch $@
 
-# A regular (not editable) install: the package is used exactly as a user gets it, start-up hook included.
+# A regular (not editable) install: the code is used exactly as a user gets it, start-up hook included.
+# ROBOLAB_MS_LINK_CHECKOUT=1 records this checkout in the package: content (task_specs/, scene_builders/, assets/)
+# is then read from here, so edits to it take effect without re-installing (see setup.py).
 $(PKG_STAMP): $(DEPS_STAMP) $(SOURCES)
-	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation --force-reinstall .
+	ROBOLAB_MS_LINK_CHECKOUT=1 $(BIN)/python -m pip install --quiet --no-deps --no-build-isolation --force-reinstall .
 	@rm -rf build *.egg-info
 	$(BIN)/python -m pip check
 	@touch $@

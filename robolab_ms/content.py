@@ -7,15 +7,17 @@ every mistake into a SpecError naming the file and the field.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
-from importlib import resources
 import math
+import os
+from collections.abc import Callable, Iterable
+from functools import lru_cache
+from importlib import resources
 from pathlib import Path
 from typing import Any, TypeVar
 
 import yaml
 
-from robolab_ms.errors import SpecError, did_you_mean
+from robolab_ms.errors import RoboLabError, SpecError, did_you_mean
 
 T = TypeVar("T")
 REQUIRED: Any = object()
@@ -25,11 +27,92 @@ CONTENT_PACKAGES = {
     "scenes": "robolab_ms.scene_builders",
     "tasks": "robolab_ms.task_specs",
 }
+CONTENT_FOLDERS = {"assets": "assets", "scenes": "scene_builders", "tasks": "task_specs"}  # as in the checkout
+USER_KINDS = ("tasks", "scenes")  # what a user content folder may add (catalog objects and assets it may not)
+CONTENT_ENV = "ROBOLAB_CONTENT"  # user content folders, separated by os.pathsep
+CHECKOUT_FILE = "checkout.txt"  # written into the installed package by `make` (see setup.py): the checkout's path
+CHECKOUT_ENV = "ROBOLAB_MS_LINK_CHECKOUT"  # set to 1 while building, records the checkout in CHECKOUT_FILE
+
+_added_roots: list[Path] = []  # folders added with add_content_root (the CLI's --content)
+
+
+@lru_cache(maxsize=None)
+def checkout_root() -> Path | None:
+    """The checkout this installed copy was built from, when `make` recorded it (CHECKOUT_FILE) and it still holds
+    the content folders; None otherwise (a plain `pip install`, or running from the checkout itself)."""
+    try:
+        text = resources.files("robolab_ms").joinpath(CHECKOUT_FILE).read_text(encoding="utf-8").strip()
+    except (OSError, ValueError):
+        return None
+    root = Path(text)
+    return root if text and all((root / folder).is_dir() for folder in CONTENT_FOLDERS.values()) else None
 
 
 def content_dir(kind: str) -> Path:
-    """The folder holding one kind of shipped content: 'assets', 'scenes' or 'tasks'."""
+    """The folder holding one kind of shipped content: 'assets', 'scenes' or 'tasks'. An installation made by `make`
+    reads the checkout's folders, so edits there take effect without a re-install; otherwise the package's own."""
+    root = checkout_root()
+    if root is not None:
+        return root / CONTENT_FOLDERS[kind]
     return Path(str(resources.files(CONTENT_PACKAGES[kind])))
+
+
+def check_content_root(folder: str | Path, origin: str) -> Path:
+    """A user content folder, checked: it must exist and hold task_specs/ or scene_builders/."""
+    path = Path(folder).expanduser()
+    if not path.is_dir():
+        raise RoboLabError(f"{origin}: '{folder}' is not a folder. Name a folder that holds task_specs/ and/or "
+                           "scene_builders/")  # fmt: skip
+    if not any((path / CONTENT_FOLDERS[kind]).is_dir() for kind in USER_KINDS):
+        raise RoboLabError(f"{origin}: '{folder}' holds neither task_specs/ nor scene_builders/. Put task files in "
+                           f"{path / 'task_specs'} and scene files in {path / 'scene_builders'}")  # fmt: skip
+    return path.resolve()
+
+
+def add_content_root(folder: str | Path) -> Path:
+    """Add a user content folder for this process (after those of ROBOLAB_CONTENT); returns it, resolved."""
+    path = check_content_root(folder, "--content")
+    if path not in _added_roots:
+        _added_roots.append(path)
+    return path
+
+
+def user_content_roots() -> list[Path]:
+    """User content folders, in search order: those in ROBOLAB_CONTENT, then those added with add_content_root."""
+    entries = [entry.strip() for entry in os.environ.get(CONTENT_ENV, "").split(os.pathsep) if entry.strip()]
+    roots: list[Path] = []
+    for path in [*(check_content_root(entry, CONTENT_ENV) for entry in entries), *_added_roots]:
+        if path not in roots:
+            roots.append(path)
+    return roots
+
+
+def content_dirs(kind: str) -> list[Path]:
+    """Every folder searched for tasks or scenes: the shipped one first, then each user content folder's."""
+    folders = [content_dir(kind)]
+    if kind in USER_KINDS:
+        for root in user_content_roots():
+            folder = root / CONTENT_FOLDERS[kind]
+            if folder.is_dir() and folder.resolve() not in {known.resolve() for known in folders}:
+                folders.append(folder)
+    return folders
+
+
+def content_files(kind: str) -> dict[str, Path]:
+    """Every task or scene file by name (the file name without .yaml), from content_dirs(kind). A name found in
+    two folders is an error naming both files."""
+    found: dict[str, Path] = {}
+    for folder in content_dirs(kind):
+        for path in sorted(folder.glob("*.yaml")):
+            if path.stem in found:
+                what = "task" if kind == "tasks" else "scene"
+                raise RoboLabError(
+                    f"{what} '{path.stem}' is defined twice: {found[path.stem]} and {path}. Names must be unique across "
+                    f"the shipped content and the folders of {CONTENT_ENV} / --content; rename one of the files (its "
+                    f"file name is the {what} name, and the name field inside must match)"
+                )
+            found[path.stem] = path
+    return found
 
 
 def load_yaml(path: Path) -> dict[str, Any]:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +18,7 @@ from scipy.spatial import ConvexHull
 
 from robolab_ms.catalog import COLOR_NAMES, Catalog, CatalogObject, load_catalog
 from robolab_ms.catalog.procedural import quat_to_matrix
-from robolab_ms.content import Fields, content_dir, load_yaml
+from robolab_ms.content import Fields, content_files, load_yaml
 from robolab_ms.errors import UnknownNameError
 
 TABLE_CENTER_XY = (0.55, 0.0)
@@ -27,6 +26,7 @@ TABLE_HEIGHT = 0.75  # table top above the floor; the floor is at z = -TABLE_HEI
 SAFE_PLACEMENT = {"x": (0.25, 0.85), "y": (-0.45, 0.45)}  # where object positions may be declared
 TILT_AXES = ("x", "y")  # object-frame axes a scene may tip an object about (to lay it on its side)
 IDENTITY_QUAT = (1.0, 0.0, 0.0, 0.0)
+JITTER_YAW_STEP_DEG = 5.0  # the yaw range of the jitter is checked at steps this fine
 DEFAULT_TABLE_SIZE = (0.9, 1.2)  # x (depth, away from the robot), y (width)
 ROBOT_PEDESTAL_FRONT_X = 0.07  # the robot's pedestal reaches this far forward; the table starts in front of it
 MAX_TABLE_SIZE = (2 * (TABLE_CENTER_XY[0] - ROBOT_PEDESTAL_FRONT_X), 2.0)
@@ -139,6 +139,7 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
     if name != file.stem:
         raise fields.error("name", f"'{name}' differs from the file name '{file.stem}'", "Make them the same")
     check_layout(fields, placements, catalog, (table_size[0], table_size[1]))
+    check_jittered_footprints(fields, placements, catalog, (table_size[0], table_size[1]), jitter_xy, jitter_yaw)
     return SceneSpec(
         name=name,
         description=fields.get("description", str, ""),
@@ -241,16 +242,68 @@ def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog:
                                "wholly inside a container's outline")  # fmt: skip
 
 
-def scene_names() -> list[str]:
-    return sorted(path.stem for path in content_dir("scenes").glob("*.yaml"))
+def jittered_extent(entry: CatalogObject, placement: ObjectPlacement, jitter_xy: float,
+                    jitter_yaw: float) -> np.ndarray:
+    """The x-y box covering an object's footprint at every pose the scene's jitter allows (its centre moved up to
+    `jitter_xy` along x and along y, its yaw turned up to `jitter_yaw`): [[min x, min y], [max x, max y]]."""
+    steps = max(1, math.ceil(2 * jitter_yaw / math.radians(JITTER_YAW_STEP_DEG)) + 1)
+    points = _outline_points(entry)
+    low, high = np.full(2, np.inf), np.full(2, -np.inf)
+    for yaw in np.linspace(placement.yaw - jitter_yaw, placement.yaw + jitter_yaw, steps):
+        rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(float(yaw)), placement.tilt)))
+        xy = points @ rotation[:2].T
+        low, high = np.minimum(low, xy.min(axis=0)), np.maximum(high, xy.max(axis=0))
+    centre = np.asarray(placement.xy)
+    return np.stack([centre + low - jitter_xy, centre + high + jitter_xy])
 
 
-@lru_cache(maxsize=None)
-def load_scene(name: str) -> SceneSpec:
-    """A shipped scene by name."""
-    path = content_dir("scenes") / f"{name}.yaml"
-    if not path.exists():
-        raise UnknownNameError("scene", name, scene_names())
+def check_jittered_footprints(fields: Fields, placements: Sequence[ObjectPlacement], catalog: Catalog,
+                              table_size: tuple[float, float], jitter_xy: float, jitter_yaw: float) -> None:
+    """Every object's whole footprint stays on the table at every pose the jitter allows, not only at its nominal
+    place (check_layout): an object hanging over the edge in some episodes would tip or fall in those only."""
+    table_low = np.asarray(TABLE_CENTER_XY) - np.asarray(table_size) / 2
+    table_high = np.asarray(TABLE_CENTER_XY) + np.asarray(table_size) / 2
+    for index, placement in enumerate(placements):
+        low, high = jittered_extent(catalog[placement.asset], placement, jitter_xy, jitter_yaw)
+        beyond_low, beyond_high = table_low - low, high - table_high
+        for axis in range(2):
+            over = max(beyond_low[axis], beyond_high[axis])
+            if over <= OVERLAP_TOLERANCE:
+                continue
+            letter = "xy"[axis]
+            edge = table_low[axis] if beyond_low[axis] > beyond_high[axis] else table_high[axis]
+            raise fields.error(
+                f"objects[{index}].xy",
+                f"'{placement.name}' reaches {over * 100:.1f} cm past the table's edge at {letter} = {edge:.3f} m at some "
+                f"poses the jitter allows ({letter} {low[axis]:.3f}..{high[axis]:.3f} m with jitter.xy "
+                f"{jitter_xy:g} m and jitter.yaw_deg {math.degrees(jitter_yaw):g})",
+                f"Move it at least {over * 100:.1f} cm further in, make table.size[{axis}] larger, or lower the jitter",
+            )
+
+
+def scene_files(near: Path | None = None) -> dict[str, Path]:
+    """Scene files by name: the shipped ones and those of user content folders (robolab_ms.content); with `near` (the
+    folder of a task file), also the scene files in that folder and in a sibling scene_builders/ folder, which come
+    first (a task's own scene may differ from a known one of the same name)."""
+    files = content_files("scenes")
+    if near is not None:
+        for folder in (near.parent / "scene_builders", near):
+            if folder.is_dir() and folder.name != "task_specs":  # a task_specs/ folder holds tasks only
+                files.update({path.stem: path for path in sorted(folder.glob("*.yaml"))})
+    return files
+
+
+def scene_names(near: Path | None = None) -> list[str]:
+    """The names `scene:` may use in a task file in folder `near` (any task file when None)."""
+    return sorted(scene_files(near))
+
+
+def load_scene(name: str, near: Path | None = None) -> SceneSpec:
+    """A scene by name: found next to the task file's folder `near` (same folder, then a sibling scene_builders/),
+    else among the shipped scenes and those of user content folders. Read afresh on every call, so edits count."""
+    path = scene_files(near).get(name)
+    if path is None:
+        raise UnknownNameError("scene", name, scene_names(near))
     return read_scene(path)
 
 

@@ -9,13 +9,13 @@ thresholds. Without `subtasks`, they are derived from the first success conditio
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from robolab_ms.content import Fields, check_name, content_dir, load_yaml
-from robolab_ms.errors import UnknownNameError, did_you_mean
+from robolab_ms.content import Fields, check_name, content_files, load_yaml
+from robolab_ms.errors import RoboLabError, UnknownNameError, did_you_mean
 from robolab_ms.scene import SceneSpec, load_scene, read_scene, scene_names
 from robolab_ms.tasks.events import EVENT_THRESHOLDS
 from robolab_ms.tasks.predicates import FLAGS, PREDICATES, STACK_ORDERS, TABLE
@@ -327,7 +327,7 @@ def read_task(file: Path) -> TaskSpec:
             raise fields.error("scene", f"file '{scene_path}' does not exist")
         scene = read_scene(scene_path)
     else:
-        scene = load_scene(fields.name_in("scene", scene_names(), "scene"))
+        scene = load_scene(fields.name_in("scene", scene_names(near=file.parent), "scene"), near=file.parent)
     attributes = fields.names_in("attributes", AXIS_OF_ATTRIBUTE, "attribute", [])
     instructions = fields.sub("instructions")
     instructions.only(INSTRUCTION_VARIANTS)
@@ -349,21 +349,38 @@ def read_task(file: Path) -> TaskSpec:
 
 
 def task_names() -> list[str]:
-    return sorted(path.stem for path in content_dir("tasks").glob("*.yaml"))
+    """Every known task: the shipped ones and those in user content folders (ROBOLAB_CONTENT, --content)."""
+    return sorted(content_files("tasks"))
 
 
-@lru_cache(maxsize=None)
-def load_task(name: str) -> TaskSpec:
-    """A shipped task by name (`BananaInBowl`) or environment id (`RoboLab-BananaInBowl-v1`), or a task file."""
-    if name.endswith(".yaml"):
-        return read_task(Path(name))
+def is_task_file(task: str | Path) -> bool:
+    """Whether `task` names a file (a path, or a name ending in .yaml / .yml) rather than a known task."""
+    text = str(task)
+    return isinstance(task, Path) or text.endswith((".yaml", ".yml")) or "/" in text or os.sep in text
+
+
+def task_file(task: str | Path) -> Path:
+    """The file of a task given by name (`BananaInBowl`), environment id (`RoboLab-BananaInBowl-v1`) or path."""
+    if is_task_file(task):
+        path = Path(task).expanduser()
+        if not path.is_file():
+            raise RoboLabError(f"task file '{task}' does not exist" + (" (it is a folder)" if path.is_dir() else ""))
+        return path.resolve()
+    name = str(task)
     if name.startswith("RoboLab-") and name.endswith("-v1"):
         name = name[len("RoboLab-"):-len("-v1")]
-    path = content_dir("tasks") / f"{name}.yaml"
-    if not path.exists():
-        raise UnknownNameError("task", name, task_names())
-    return read_task(path)
+    files = content_files("tasks")
+    if name not in files:
+        raise UnknownNameError("task", name, files)
+    return files[name]
+
+
+def load_task(task: str | Path) -> TaskSpec:
+    """A task by name (`BananaInBowl`), environment id (`RoboLab-BananaInBowl-v1`) or task file path (its scene is
+    found next to it, or by name). Read afresh on every call: an edited file counts at once."""
+    return read_task(task_file(task))
 
 
 def load_all_tasks() -> list[TaskSpec]:
-    return [load_task(name) for name in task_names()]
+    """Every known task (see task_names), read and checked."""
+    return [read_task(path) for _, path in sorted(content_files("tasks").items())]
