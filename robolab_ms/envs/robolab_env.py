@@ -5,6 +5,16 @@ RoboLabSceneBuilder; evaluate() runs the spec's success conditions through the p
 state machine. Physics runs at 120 Hz and control at 15 Hz. The robot is chosen at run time (`robot_uids`, default
 `droid`, see robolab_ms.agents). Actions follow DROID: absolute arm joint targets (7 for the Panda arms) and one
 gripper value (0 open, 1 closed; above 0.5 closes).
+
+Determinism (CPU simulator, one environment per process): an episode is a pure function of (task, instruction
+variant, robot, policy, seed). PhysX keeps state that no SAPIEN call reads or writes (persistent contact manifolds,
+friction anchors, articulation joint accelerations), so two things are done:
+- every reset rebuilds the simulation scene (ManiSkill's reconfiguration, `reconfiguration_freq=1`), so an episode
+  starts from a brand-new PhysX scene whatever ran before it in this process;
+- the state dict carries the episode's identity (`episode`: seed and step), and the environment keeps the actions of
+  its current episode; `set_state_dict` of a state of that episode rebuilds the scene and replays those actions,
+  which recreates PhysX's hidden state exactly. Any other state is set the way ManiSkill sets it (poses, velocities,
+  joint positions and velocities), and what follows is then close but not guaranteed bit-identical.
 """
 
 from __future__ import annotations
@@ -12,6 +22,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,13 +48,16 @@ from robolab_ms.tasks.predicates import TABLE
 from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS, load_task
 
 SIM_HZ = 120
+CPU_BACKENDS = ("auto", "cpu", "physx_cpu")
+EPISODE_STATE_KEY = "episode"  # the state dict's entry with the episode's seed and step (see set_state_dict)
 
 
 class RoboLabEnv(BaseEnv):
     """A RoboLab task in ManiSkill. Registered once per task spec as `RoboLab-<Task>-v1`.
 
     Args:
-        task: task name (the spec file's stem), set by the registration of each id.
+        task: the task: a name, an environment id or a task file path (its scene is found next to it or by
+            name). Each id's registration sets its own file; everything (episode length included) comes from it.
         instruction: which instruction variant the episode carries: default, vague or specific.
         robot_uids: the robot, one of `ROBOT_BINDINGS` (default `droid`: Panda + Robotiq 2F-85).
         cameras: the policy cameras, any of external_left, external_right, wrist (default external_left + wrist).
@@ -59,7 +73,7 @@ class RoboLabEnv(BaseEnv):
     def __init__(
         self,
         *args: Any,
-        task: str,
+        task: str | Path,
         instruction: str = "default",
         robot_uids: str = DEFAULT_ROBOT,
         control_mode: str | None = None,
@@ -80,6 +94,13 @@ class RoboLabEnv(BaseEnv):
         self.camera_width, self.camera_height = camera_width, camera_height
         self.video_size = (video_width, video_height)
         self.catalog = load_catalog()
+        self._exact_episodes = kwargs.get("num_envs", 1) == 1 and kwargs.get("sim_backend", "auto") in CPU_BACKENDS
+        if self._exact_episodes:
+            kwargs.setdefault("reconfiguration_freq", 1)  # a brand-new PhysX scene for every episode
+        self._episode_actions: list[torch.Tensor] = []  # the current episode's actions, for exact state restores
+        self._episode_seed_used: int | None = None  # the seed of the current episode; None when not replayable
+        self._replaying = False
+        self._episode_options: dict = {}
         if kwargs.get("render_backend", "gpu") == "gpu" and not torch.cuda.is_available():
             kwargs["render_backend"] = "cpu"  # what ManiSkill falls back to anyway, without its warning
         try:
@@ -174,6 +195,73 @@ class RoboLabEnv(BaseEnv):
         """End-effector pose (between the fingertips)."""
         return self.agent.tcp_pose
 
+    # ------------------------------------------------------------------------------------------------ episodes
+    def reset(self, seed: int | list[int] | None = None, options: dict | None = None) -> tuple[Any, dict]:
+        """ManiSkill's reset; on the CPU simulator the scene is rebuilt first, so nothing carries over from earlier
+        episodes (see the module docstring)."""
+        observation, info = super().reset(seed=seed, options=options)
+        self._episode_actions = []
+        self._episode_options = {key: value for key, value in (options or {}).items() if key != "reconfigure"}
+        replayable = self._exact_episodes and not (options or {}).get("reset_to_env_states")
+        self._episode_seed_used = int(self._episode_seed[0]) if replayable else None
+        return observation, info
+
+    def step(self, action: Any) -> tuple[Any, Any, Any, Any, dict]:
+        if self._episode_seed_used is not None:
+            self._episode_actions.append(_action_copy(action))
+        return super().step(action)
+
+    def get_state_dict(self) -> dict[str, Any]:
+        """ManiSkill's state (poses, velocities, joint states, controller) plus `episode`: the seed and the step of
+        the episode this state belongs to (-1 when the episode cannot be replayed)."""
+        state = super().get_state_dict()
+        seed = -1 if self._episode_seed_used is None else self._episode_seed_used
+        state[EPISODE_STATE_KEY] = {
+            "seed": torch.full((self.num_envs,), seed, dtype=torch.int64),
+            "step": self._elapsed_steps.detach().to("cpu", torch.int64).clone(),
+        }
+        return state
+
+    def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None) -> None:
+        """Restore a state. A state of the current episode is restored exactly (the scene is rebuilt and the
+        episode's actions replayed up to its step), so the same actions from there give bit-identical results;
+        other states are set as ManiSkill sets them."""
+        state = dict(state)
+        episode = state.pop(EPISODE_STATE_KEY, None)
+        if episode is not None and env_idx is None and self._restore_by_replay(state, episode):
+            return
+        super().set_state_dict(state, env_idx)
+        if episode is not None:
+            self._elapsed_steps[:] = torch.as_tensor(episode["step"], device=self.device).reshape(-1)
+        self._episode_seed_used = None  # what follows is no longer a replayable episode
+
+    def _restore_by_replay(self, state: dict, episode: dict) -> bool:
+        """Rebuild the scene and replay this episode's actions up to the state's step; False when the state is not
+        one of this episode's (its physics state after the replay differs)."""
+        seed = int(torch.as_tensor(episode["seed"]).reshape(-1)[0])
+        step = int(torch.as_tensor(episode["step"]).reshape(-1)[0])
+        if self._episode_seed_used is None or seed != self._episode_seed_used or not 0 <= step <= len(self._episode_actions):
+            return False
+        if step == int(self._elapsed_steps[0]) and _same_state(super().get_state_dict(), state):
+            return True  # already in exactly that state
+        actions = self._episode_actions[:step]
+        self._replaying = True
+        try:
+            self.reset(seed=seed, options=self._episode_options)
+            for action in actions:
+                self.step(action)
+        finally:
+            self._replaying = False
+        return _same_state(super().get_state_dict(), state)
+
+    def get_obs(self, info: dict | None = None, unflattened: bool = False) -> Any:
+        if self._replaying:
+            return {}  # a replay to restore a state renders nothing
+        return super().get_obs(info, unflattened=unflattened)
+
+    def _flatten_raw_obs(self, obs: Any) -> Any:
+        return obs if self._replaying else super()._flatten_raw_obs(obs)
+
     # ------------------------------------------------------------------------------------------------ stepping
     def _step_action(self, action: Any) -> Any:
         """Map DROID's gripper value (0 open, 1 closed, > 0.5 closes) to the robot's gripper controller value."""
@@ -203,3 +291,24 @@ class RoboLabEnv(BaseEnv):
 
     def compute_sparse_reward(self, obs: Any, action: torch.Tensor, info: dict) -> torch.Tensor:
         return info["success"].float()
+
+
+def _action_copy(action: Any) -> Any:
+    """A copy of an action as given to step(), detached from the caller's buffers."""
+    if isinstance(action, torch.Tensor):
+        return action.detach().clone()
+    if isinstance(action, np.ndarray):
+        return action.copy()
+    if isinstance(action, dict):
+        return {key: _action_copy(value) for key, value in action.items()}
+    return action
+
+
+def _same_state(a: Any, b: Any) -> bool:
+    """Whether two (nested) state dicts hold bit-identical tensors under the same keys."""
+    if isinstance(a, dict) or isinstance(b, dict):
+        if not (isinstance(a, dict) and isinstance(b, dict)) or a.keys() != b.keys():
+            return False
+        return all(_same_state(a[key], b[key]) for key in a)
+    a, b = torch.as_tensor(a).cpu(), torch.as_tensor(b).cpu()
+    return a.shape == b.shape and torch.equal(a, b.to(a.dtype))
