@@ -44,6 +44,7 @@ PANDA_ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 FLANGE_LINK = "panda_link8"
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
 PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
+JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-collision along a joint path
 
 
 class OracleFailure(RoboLabError):
@@ -130,6 +131,7 @@ class OraclePolicy(Policy):
     def reset(self, instruction: str, action_space: spaces.Box, seed: int) -> None:
         if self.env is None:
             raise OracleFailure("the oracle reads the simulator: call bind(env) before reset()")
+        _seed_inverse_kinematics(seed)
         self.jobs = deque(jobs_for(self.env))
         self.actions.clear()
         self.gripper = 0.0
@@ -228,7 +230,7 @@ class OraclePolicy(Policy):
         # come in the way the hand would back out: down beside the opening, then straight in
         above_outside = at_grasp.copy()
         above_outside[:7] = back_out[-1][-1]
-        result = planner.plan_qpos_to_qpos([above_outside], qpos, time_step=1.0 / env.control_freq, planning_time=2.0)
+        result = self._plan_to_joints([above_outside], qpos)
         if result["status"] != "Success":
             raise OracleFailure(f"cannot reach the opening of '{name}': no motion plan ({result['status']})")
         self._queue(qpos, result["position"])
@@ -305,14 +307,28 @@ class OraclePolicy(Policy):
         pose = self._flange_target(pose)
         result = planner.plan_screw(pose, qpos, time_step=step) if straight else {"status": "not tried"}
         if result["status"] != "Success":
-            result = planner.plan_qpos_to_pose(pose, qpos, time_step=step, planning_time=2.0)
-        if result["status"] != "Success" and "IK" in result["status"]:  # near the edge of the workspace: try harder
-            status, goals = planner.IK(pose, qpos, n_init_qpos=IK_RETRIES)
-            if status == "Success":
-                result = planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=2.0)
+            status, goals = planner.IK(pose, qpos)
+            if status != "Success":  # near the edge of the workspace: try harder
+                status, goals = planner.IK(pose, qpos, n_init_qpos=IK_RETRIES)
+            result = self._plan_to_joints(goals, qpos) if status == "Success" else {"status": status}
         if result["status"] != "Success":
             raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
         return self._queue(qpos, result["position"])
+
+    def _plan_to_joints(self, goals: list[np.ndarray], qpos: np.ndarray) -> dict[str, Any]:
+        """A timed joint path to the first goal reachable by a straight line in joint space free of self-collision;
+        a sampling planner (not reproducible) only when no straight line is free."""
+        planner, step = self._planner, 1.0 / self.env.control_freq
+        for goal in goals:
+            count = int(np.ceil(np.max(np.abs(goal[:7] - qpos[:7])) / JOINT_PATH_RESOLUTION)) + 1
+            path = np.linspace(qpos, goal, max(count, 2))
+            if any(planner.check_for_self_collision(qpos=point) for point in path):
+                continue
+            if count == 1:
+                return {"status": "Success", "position": path[-1:, :7]}
+            _, position, *_ = planner.TOPP(path[:, :7], step)
+            return {"status": "Success", "position": position}
+        return planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=2.0)
 
     def _flange_target(self, tcp_pose: np.ndarray) -> np.ndarray:
         """The flange pose [x, y, z, qw, qx, qy, qz] that puts the TCP at `tcp_pose`."""
@@ -334,6 +350,14 @@ class OraclePolicy(Policy):
         """The planning model's joints (the Panda arm's 7, then its 2 fingers, kept open) from the robot's state."""
         arm = self.env.arm_qpos()[0].cpu().numpy().astype(np.float64)
         return np.concatenate([arm, [0.04, 0.04]])
+
+
+def _seed_inverse_kinematics(seed: int) -> None:
+    """Seed the C library's generator, from which the planner's inverse kinematics draws its random starts, so the
+    oracle's plans depend on the episode seed only."""
+    import ctypes
+
+    ctypes.CDLL(None).srand(ctypes.c_uint(seed & 0xFFFFFFFF))
 
 
 def _make_planner(env: RoboLabEnv):
