@@ -6,15 +6,23 @@ Per task over N seeds:
 - random policy: its success rate (expected near 0; above 10 % the task is too easy to pass by flailing);
 - oracle: its success rate (at least 90 %) and time per episode.
 Episodes of both policies go through the evaluation runner, into OUT/episodes.jsonl, so a rerun resumes.
+
+When the oracle fails an episode without raising (it runs out of time), `explain_failure` says why, from what an
+`EpisodeWatch` saw during that episode (which target objects the fingers touched, when and how each contact ended,
+and the state of the success condition on the last step) and the episode's events: never grasped, dropped while
+carried, still held at the end, placed but the condition false, placed but a flag unmet, knocked off the table ...
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from collections import defaultdict
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from robolab_ms.eval.results import EpisodeResult
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 
 STABILITY_PHYSICS_STEPS = 300
@@ -22,6 +30,7 @@ MAX_DRIFT_M = 0.02
 MAX_RANDOM_SUCCESS = 0.10
 MIN_ORACLE_SUCCESS = 0.90
 REPORT_CSV, REPORT_MD = "validation.csv", "validation.md"
+FELL_BELOW_M = -0.05  # an object whose centre ends this far below the table top fell off the table
 
 
 @dataclass(frozen=True)
@@ -36,19 +45,21 @@ class TaskValidation:
     oracle_success: float
     oracle_seconds: float
     oracle_errors: str
+    oracle_failures: str  # why the oracle's failed episodes that raised nothing failed, grouped by explanation
     passed: bool
     problems: str
 
 
 def check_rest(task: str, seeds: range) -> tuple[float, int]:
     """Largest object drift (m) over 300 physics steps with the arm holding still, and how many seeds count as
-    solved right after reset."""
+    solved right after reset. `task`: a name or a task file."""
     import gymnasium as gym
 
-    import robolab_ms.envs  # noqa: F401  (registers the environments)
+    from robolab_ms.envs import register_task_file
     from robolab_ms.tasks.spec import load_task
 
-    env = gym.make(load_task(task).env_id, obs_mode="state_dict", render_backend="cpu")
+    spec = load_task(task)
+    env = gym.make(register_task_file(spec.file), task=str(spec.file), obs_mode="state_dict", render_backend="cpu")
     base = env.unwrapped
     worst, solved = 0.0, 0
     try:
@@ -66,19 +77,210 @@ def check_rest(task: str, seeds: range) -> tuple[float, int]:
     return worst, solved
 
 
-def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True) -> TaskValidation:
-    """Run every check on one task; episodes go to `out_dir`."""
-    from robolab_ms.policies import make_policy
+# ------------------------------------------------------------------------------------------------ watching the oracle
+@dataclass
+class ContactEnd:
+    """The fingers stopped touching a target object: at which step, whether the gripper was then commanded closed
+    (it slipped out: dropped) or open (let go: released), and how high its centre was above the table top (m)."""
 
-    drift, solved_at_reset = check_rest(task, range(first_seed, first_seed + seeds))
-    config = EvalConfig(tasks=(task,), episodes=seeds, first_seed=first_seed)
+    step: int
+    obj: str
+    gripper_closed: bool
+    height: float
+
+
+@dataclass
+class FinalState:
+    """The success conditions on an episode's last step, per target object."""
+
+    holds: list[dict[str, bool]]  # per success condition: does it hold for each of its objects
+    placed: list[dict[str, bool]]  # ... with require_contact_with / require_gripper_detached left out
+    held: list[str]  # target objects the fingers touch
+    heights: dict[str, float]  # centre height above the table top (m)
+
+
+@dataclass
+class EpisodeWatch:
+    """What validation saw of one episode."""
+
+    seed: int
+    touched: set[str] = field(default_factory=set)
+    contact_ends: list[ContactEnd] = field(default_factory=list)
+    final: FinalState | None = None
+
+
+class WatchedPolicy:
+    """A privileged policy (the oracle) that also records, per episode, what `explain_failure` needs. Everything
+    else is the wrapped policy's: its name, so results are filed as usual, and every attribute not defined here."""
+
+    def __init__(self, policy: Any) -> None:
+        self.policy = policy
+        self.name, self.needs_images, self.privileged = policy.name, policy.needs_images, True
+        self.watches: dict[int, EpisodeWatch] = {}
+        self.env: Any = None
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.policy, name)
+
+    def bind(self, env: Any) -> None:
+        self.env = env.unwrapped
+        self.policy.bind(env)
+
+    def reset(self, instruction: str, action_space: Any, seed: int) -> None:
+        self.watch = self.watches[seed] = EpisodeWatch(seed)
+        self._touching: set[str] = set()
+        self._gripper_closed = False
+        self.policy.reset(instruction, action_space, seed)
+
+    def act(self, observation: Any) -> np.ndarray:
+        action = self.policy.act(observation)
+        self._look(int(self.env.elapsed_steps[0]))
+        self._gripper_closed = bool(np.asarray(action)[-1] > 0.5)
+        return action
+
+    def _look(self, step: int) -> None:
+        from robolab_ms.tasks.predicates import CONTACT_FORCE_N
+
+        env, watch = self.env, self.watch
+        context, targets = env.eval_context, condition_objects(env.task_spec)
+        forces = context.gripper_forces(targets)[0]
+        touching = {name for name, force in zip(targets, forces.tolist()) if force > CONTACT_FORCE_N}
+        for name in sorted(self._touching - touching):
+            height = float(context.centre(name)[0, 2])
+            watch.contact_ends.append(ContactEnd(step, name, self._gripper_closed, round(height, 3)))
+        watch.touched |= touching
+        self._touching = touching
+        if step >= env.task_spec.max_episode_steps - 1:  # the last step of an episode that did not succeed
+            watch.final = final_state(env, touching, targets)
+
+
+def condition_objects(spec: Any) -> list[str]:
+    """The objects the task's success conditions are about, in order of appearance."""
+    names: list[str] = []
+    for condition in spec.success:
+        names += [name for name in condition.objects if name not in names]
+    return names
+
+
+def final_state(env: Any, held: set[str], targets: list[str]) -> FinalState:
+    """The success conditions now, per object, with and without their flags."""
+    from robolab_ms.tasks.predicates import per_object
+
+    context = env.eval_context
+    holds, placed = [], []
+    for condition in env.task_spec.success:
+        relaxed = replace(condition, require_contact_with=False, require_gripper_detached=False)
+        holds.append(dict(zip(condition.objects, per_object(context, condition)[0].tolist())))
+        placed.append(dict(zip(condition.objects, per_object(context, relaxed)[0].tolist())))
+    heights = {name: round(float(context.centre(name)[0, 2]), 3) for name in targets}
+    return FinalState(holds, placed, sorted(held), heights)
+
+
+# ------------------------------------------------------------------------------------------------ explaining
+def describe(condition: Any) -> str:
+    """A condition in one short line, e.g. `in_container(banana, container=bowl)`."""
+    arguments = [", ".join(condition.objects), *(f"{key}={value}" for key, value in condition.references.items())]
+    return f"{condition.predicate}({', '.join(arguments)})"
+
+
+def _flags_unmet(condition: Any) -> str:
+    flags = []
+    if condition.require_contact_with:
+        flags.append(f"touching {next(iter(condition.references.values()), 'its reference')}")
+    if condition.require_gripper_detached:
+        flags.append("let go of")
+    return " and ".join(flags) or "its flags"
+
+
+def explain_failure(result: EpisodeResult, watch: EpisodeWatch | None, spec: Any) -> str:
+    """Why an episode did not succeed, in one line, for an author deciding whether to blame the object, the scene
+    or the planner. An error is its own explanation; without a watch (an episode resumed from an earlier run) only
+    the events can speak."""
+    if result.error:
+        return result.error
+    events = result.events
+    if watch is None or watch.final is None:
+        return "no success in %d steps; events: %s" % (result.steps, _event_summary(events) or "none")
+    final = watch.final
+    index = max(range(len(spec.success)), key=lambda i: sum(final.holds[i].values()))  # the closest condition
+    condition = spec.success[index]
+    holds, placed = final.holds[index], final.placed[index]
+    ends = defaultdict(list)
+    for end in watch.contact_ends:
+        ends[end.obj].append(end)
+    out_of_scene = {event["object"] for event in events if event["type"] == "object_out_of_scene"}
+    findings = []
+    for name in condition.objects:
+        if holds[name]:
+            continue
+        if name in out_of_scene or final.heights[name] < FELL_BELOW_M:
+            findings.append(f"{name} fell off the table")
+        elif name not in watch.touched:
+            findings.append(f"{name} never grasped (the fingers never touched it)")
+        elif name in final.held:
+            extra = f"; {describe(condition)} would hold once let go" if placed[name] else ""
+            findings.append(f"{name} still held at the end{extra}")
+        elif placed[name]:
+            findings.append(f"{name} placed, but not {_flags_unmet(condition)} at the end")
+        else:
+            last = ends[name][-1] if ends[name] else None
+            drops = [end for end in ends[name] if end.gripper_closed]
+            if last is not None and last.gripper_closed:
+                findings.append(f"{name} dropped at step {last.step} (slipped out of the closed gripper "
+                                f"{last.height * 100:.0f} cm above the table); {describe(condition)} false at the end")
+            elif last is not None:
+                dropped = f" after {len(drops)} drop(s)" if drops else ""
+                findings.append(f"{name} placed (let go at step {last.step}{dropped}) but {describe(condition)} false "
+                                "at the end")  # fmt: skip
+            else:
+                findings.append(f"{name} touched but {describe(condition)} false at the end")
+    if not findings:
+        findings.append(f"{describe(condition)} holds for some objects but not as `{condition.logical}` needs")
+    others = _event_summary([event for event in events
+                             if event["type"] in ("wrong_object_grasped", "object_tipped_over", "multiple_objects_grasped")])  # fmt: skip
+    return f"ran out of time ({result.steps} steps): " + "; ".join(findings) + (f" [events: {others}]" if others else "")
+
+
+def _event_summary(events: list[dict]) -> str:
+    """Events as `type object @step`, the first of each (type, object) with a count of repeats."""
+    seen: dict[tuple[str, str], list[int]] = {}
+    for event in events:
+        seen.setdefault((event["type"], event["object"]), []).append(event["step"])
+    return ", ".join(f"{kind} {obj} @{steps[0]}" + (f" (x{len(steps)})" if len(steps) > 1 else "")
+                     for (kind, obj), steps in seen.items())  # fmt: skip
+
+
+def group_explanations(explained: list[tuple[int, str]]) -> str:
+    """`seed 3, 7: <why>; seed 5: <why>` (seeds sharing an explanation go together)."""
+    by_text: dict[str, list[int]] = defaultdict(list)
+    for seed, text in explained:
+        by_text[text].append(seed)
+    return "; ".join(f"seed {', '.join(map(str, seeds))}: {text}" for text, seeds in by_text.items())
+
+
+# ------------------------------------------------------------------------------------------------ one task
+def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True) -> TaskValidation:
+    """Run every check on one task (a name or a task file); episodes go to `out_dir`."""
+    from robolab_ms.envs import register_task_file
+    from robolab_ms.policies import make_policy
+    from robolab_ms.tasks.spec import load_task
+
+    spec = load_task(task)
+    register_task_file(spec.file, replace=True)  # the id loads exactly this file in this process
+    seed_range = range(first_seed, first_seed + seeds)
+    drift, solved_at_reset = check_rest(str(spec.file), seed_range)
+    config = EvalConfig(tasks=(str(spec.file),), episodes=seeds, first_seed=first_seed)
     random_results = run_evaluation(make_policy("random"), config, out_dir, show_progress)
-    oracle_results = run_evaluation(make_policy("oracle"), config, out_dir, show_progress)
-    oracle_results = [r for r in oracle_results if r.task == task]
-    random_results = [r for r in random_results if r.task == task]
+    oracle = WatchedPolicy(make_policy("oracle"))
+    oracle_results = run_evaluation(oracle, config, out_dir, show_progress)
+    oracle_results = [r for r in oracle_results if r.task == spec.name]
+    random_results = [r for r in random_results if r.task == spec.name]
     random_rate = float(np.mean([r.success for r in random_results]))
     oracle_rate = float(np.mean([r.success for r in oracle_results]))
     errors = sorted({r.error for r in oracle_results if r.error})
+    failed = sorted((r for r in oracle_results if not r.success and not r.error and r.seed in seed_range),
+                    key=lambda r: r.seed)  # fmt: skip
+    failures = group_explanations([(r.seed, explain_failure(r, oracle.watches.get(r.seed), spec)) for r in failed])
     problems = []
     if drift > MAX_DRIFT_M:
         problems.append(f"an object drifts {drift * 100:.1f} cm at rest (max {MAX_DRIFT_M * 100:.0f})")
@@ -89,7 +291,7 @@ def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, sho
     if oracle_rate < MIN_ORACLE_SUCCESS:
         problems.append(f"oracle succeeds only {oracle_rate:.0%} (min {MIN_ORACLE_SUCCESS:.0%})")
     return TaskValidation(
-        task=task,
+        task=spec.name,
         seeds=seeds,
         max_drift_cm=round(drift * 100, 2),
         success_at_reset=solved_at_reset,
@@ -97,6 +299,7 @@ def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, sho
         oracle_success=round(oracle_rate, 3),
         oracle_seconds=round(float(np.mean([r.wall_seconds for r in oracle_results])), 2),
         oracle_errors="; ".join(errors),
+        oracle_failures=failures,
         passed=not problems,
         problems="; ".join(problems),
     )

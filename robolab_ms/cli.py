@@ -17,10 +17,36 @@ from pathlib import Path
 from robolab_ms.errors import RoboLabError
 
 
-def _cmd_list(args: argparse.Namespace) -> int:
-    from robolab_ms.tasks.spec import load_all_tasks
+def _task_arguments(tasks: list[str]) -> tuple[str, ...]:
+    """The `--task` values, each checked: a known task's name, or a task file's path. A task file is registered as
+    `RoboLab-<name>-v1` for this run (replacing a known task of the same name, with a note)."""
+    from robolab_ms.tasks.spec import is_task_file, load_task, task_names
 
-    tasks = load_all_tasks()
+    resolved, names = [], {}
+    for task in tasks:
+        spec = load_task(task)  # unknown names and bad files fail here, with suggestions
+        if spec.name in names:
+            raise RoboLabError(f"--task: '{names[spec.name]}' and '{task}' are both the task {spec.name}; give it once")
+        names[spec.name] = task
+        if not is_task_file(task):
+            resolved.append(spec.name)
+            continue
+        import robolab_ms.envs  # registers the known tasks first
+
+        if spec.name in task_names() and robolab_ms.envs.registered_file(spec.env_id) != spec.file:
+            print(f"robolab: note: {spec.file} replaces the task {spec.name} of "
+                  f"{robolab_ms.envs.registered_file(spec.env_id)} in this run; results are filed under its name",
+                  file=sys.stderr)  # fmt: skip
+        robolab_ms.envs.register_task_file(spec.file, replace=True)
+        resolved.append(str(spec.file))
+    return tuple(resolved)
+
+
+def _cmd_list(args: argparse.Namespace) -> int:
+    from robolab_ms.content import content_dirs
+    from robolab_ms.tasks.spec import load_all_tasks, load_task
+
+    tasks = [load_task(task) for task in args.task] if args.task else load_all_tasks()
     rows = [("task", "env id", "scene", "attributes", "axes", "subtasks", "difficulty", "seconds")]
     for spec in tasks:
         rows.append((spec.name, spec.env_id, spec.scene.name, ",".join(spec.attributes) or "-",
@@ -30,6 +56,8 @@ def _cmd_list(args: argparse.Namespace) -> int:
     for row in rows:
         print("  ".join(cell.ljust(width) for cell, width in zip(row, widths)).rstrip())
     print(f"\n{len(tasks)} task(s)")
+    if not args.task:
+        print("task folders: " + ", ".join(str(folder.resolve()) for folder in content_dirs("tasks")))
     return 0
 
 
@@ -38,14 +66,14 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     from robolab_ms.eval.results import EPISODES_FILE
     from robolab_ms.eval.runner import EvalConfig, run_evaluation
     from robolab_ms.policies import make_policy
-    from robolab_ms.tasks.spec import INSTRUCTION_VARIANTS, load_task
+    from robolab_ms.tasks.spec import INSTRUCTION_VARIANTS
 
     if args.episodes < 1:
         raise RoboLabError(f"--episodes must be at least 1, got {args.episodes}")
     if args.instruction not in INSTRUCTION_VARIANTS:
         raise RoboLabError(f"--instruction must be one of {', '.join(INSTRUCTION_VARIANTS)}")
     policy = make_policy(args.policy)
-    tasks = tuple(load_task(task).name for task in args.task)  # unknown names fail here, with suggestions
+    tasks = _task_arguments(args.task)  # unknown names and bad files fail here, with suggestions
     robot = None
     if args.robot:
         import robolab_ms.envs  # noqa: F401  (registers the environments and the robots)
@@ -105,16 +133,30 @@ def _cmd_catalog_sheet(args: argparse.Namespace) -> int:
     return 0
 
 
+GRASP_CLEARANCE = 0.005  # m: an object "fits" the open gripper with at least this much room on each side
+
+
 def _cmd_catalog_list(args: argparse.Namespace) -> int:
-    from robolab_ms.catalog import read_catalog
+    from robolab_ms.catalog import DROID_GRIPPER_OPENING as GRIPPER_OPENING
+    from robolab_ms.catalog import narrowest_width, read_catalog
 
     catalog = read_catalog(_catalog_file(args))
+    rows = [("object", "class", "size x y z (cm)", "grasp (cm)", "fits", "colours", "mass (kg)", "source")]
     for name in catalog.names():
         entry = catalog[name]
         kind = entry.source["generator"] if entry.is_procedural else entry.source["package"]
         size = " x ".join(f"{d * 100:.1f}" for d in (entry.recorded_dimensions or entry.dimensions))
-        print(f"{name:28s} {entry.object_class:12s} {size:>20s} cm  {entry.mass:6.3f} kg  {kind}")
-    print(f"\n{len(catalog)} object(s)")
+        width = narrowest_width(entry)
+        fits = "yes" if width <= GRIPPER_OPENING - 2 * GRASP_CLEARANCE else "tight" if width < GRIPPER_OPENING else "no"
+        rows.append((name, entry.object_class, size, f"{width * 100:.1f}", fits, ",".join(entry.colors) or "-",
+                     f"{entry.mass:.3f}", kind))  # fmt: skip
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    for row in rows:
+        print("  ".join(cell.ljust(width) for cell, width in zip(row, widths)).rstrip())
+    print(f"\n{len(catalog)} object(s). grasp: the narrowest horizontal width as the object stands; fits: whether "
+          f"that is under the DROID gripper's {GRIPPER_OPENING * 1000:.0f} mm opening with "
+          f"{GRASP_CLEARANCE * 1000:.0f} mm to spare on each side (yes), under it (tight) or not (no; a thin part such "
+          "as a handle or rim may still be graspable)")  # fmt: skip
     return 0
 
 
@@ -134,7 +176,8 @@ def _add_catalog_commands(commands) -> None:
     sheet.add_argument("--out", default="docs/images/contact_sheet.png", help="output PNG")
     sheet.add_argument("--tile", type=int, default=112, help="tile size in pixels (default 112)")
     sheet.set_defaults(run=_cmd_catalog_sheet)
-    listing = actions.add_parser("list", help="list the objects with class, size, mass and source")
+    listing = actions.add_parser("list", help="list the objects with class, size, graspable width, colours, mass "
+                                 "and source")  # fmt: skip
     listing.set_defaults(run=_cmd_catalog_list)
     for action in (build, check, sheet, listing):
         action.add_argument("--catalog", help="catalog file (default: the shipped assets/catalog.yaml)")
@@ -144,13 +187,13 @@ def _add_catalog_commands(commands) -> None:
 
 def _cmd_validate(args: argparse.Namespace) -> int:
     from robolab_ms.eval.validate import REPORT_CSV, validate_task, write_report
-    from robolab_ms.tasks.spec import load_task, task_names
+    from robolab_ms.tasks.spec import task_names
 
     if args.seeds < 1:
         raise RoboLabError(f"--seeds must be at least 1, got {args.seeds}")
     if not args.all and not args.task:
         raise RoboLabError("name the tasks to validate with --task NAME ..., or use --all")
-    tasks = task_names() if args.all else [load_task(task).name for task in args.task]
+    tasks = task_names() if args.all else list(_task_arguments(args.task))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -158,6 +201,9 @@ def _cmd_validate(args: argparse.Namespace) -> int:
         rows.append(validate_task(task, args.seeds, out, args.seed, show_progress=not args.quiet))
         report = write_report(rows, out)  # after every task: an interrupted run keeps what it checked
     print(report.read_text(), end="")
+    for row in rows:
+        if row.oracle_failures:
+            print(f"why the oracle failed {row.task}: {row.oracle_failures}")
     print(f"report: {report} (and {out / REPORT_CSV}); episodes: {out / 'episodes.jsonl'}")
     failed = [row.task for row in rows if not row.passed]
     if failed:
@@ -174,19 +220,29 @@ def build_parser() -> argparse.ArgumentParser:
     )
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    listing = commands.add_parser("list", help="list the tasks with their attributes and difficulty")
+    from robolab_ms.content import CONTENT_ENV
+
+    content = argparse.ArgumentParser(add_help=False)
+    content.add_argument("--content", action="append", default=[], metavar="DIR",
+                         help=f"a folder of your own tasks and scenes (DIR/task_specs/, DIR/scene_builders/), added "
+                         f"after those of ${CONTENT_ENV}; may be given more than once")  # fmt: skip
+    task_help = ("task name(s) as in `robolab list`, e.g. BananaInBowl, or task file(s), e.g. my_tasks/T.yaml (its "
+                 "scene is found next to it, in a sibling scene_builders/ folder, or by name)")  # fmt: skip
+
+    listing = commands.add_parser("list", help="list the tasks with their attributes and difficulty", parents=[content])
+    listing.add_argument("--task", nargs="+", metavar="TASK", help=task_help + " (default: every known task)")
     listing.set_defaults(run=_cmd_list)
 
     evaluate = commands.add_parser(
         "eval",
+        parents=[content],
         help="evaluate a policy on tasks and write results",
         description="Run a policy for N episodes (seeds first_seed .. first_seed+N-1) on each task. Each finished "
         "episode is appended to OUT/episodes.jsonl at once; rerunning the same command skips finished episodes. "
         "At the end OUT/summary.csv and OUT/summary.md hold success rate (95%% interval), score and Score(fail).",
     )
     evaluate.add_argument("--policy", default="random", help="policy name (default: random)")
-    evaluate.add_argument("--task", nargs="+", required=True, metavar="TASK",
-                          help="task name(s) as in `robolab list`, e.g. BananaInBowl")  # fmt: skip
+    evaluate.add_argument("--task", nargs="+", required=True, metavar="TASK", help=task_help)
     evaluate.add_argument("--episodes", type=int, default=10, help="episodes per task (default: 10)")
     evaluate.add_argument("--out", default="results/latest", help="results folder (default: results/latest)")
     evaluate.add_argument("--instruction", default="default", help="instruction variant: default, vague or specific")
@@ -201,13 +257,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     validate = commands.add_parser(
         "validate",
+        parents=[content],
         help="check tasks: stable at rest, not solved at reset, not solved by chance, solved by the oracle",
         description="For each task over SEEDS seeds: the largest object drift over 300 physics steps at rest "
         "(max 2 cm), success right after reset (must be none), the random policy's success rate (max 10%%) and "
         "the oracle's (min 90%%) with its time per episode. Writes OUT/validation.csv and OUT/validation.md, the "
         "episodes to OUT/episodes.jsonl (a rerun resumes), and exits with status 1 when a task fails a check.",
     )
-    validate.add_argument("--task", nargs="+", metavar="TASK", help="task name(s) as in `robolab list`")
+    validate.add_argument("--task", nargs="+", metavar="TASK", help=task_help)
     validate.add_argument("--all", action="store_true", help="validate every task")
     validate.add_argument("--seeds", type=int, default=10, help="seeds per task (default: 10)")
     validate.add_argument("--seed", type=int, default=0, help="first seed (default: 0)")
@@ -220,6 +277,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        from robolab_ms.content import add_content_root
+
+        for folder in getattr(args, "content", None) or []:
+            add_content_root(folder)
         return args.run(args)
     except RoboLabError as error:
         print(f"robolab: error: {error}", file=sys.stderr)

@@ -439,3 +439,19 @@ def read_catalog(file: Path) -> Catalog:
 def load_catalog(file: Path | None = None) -> Catalog:
     """The shipped catalog (assets/catalog.yaml), or another catalog file."""
     return read_catalog(file or content_dir("assets") / "catalog.yaml")
+
+
+DROID_GRIPPER_OPENING = 0.085  # m between the finger pads of DROID's open Robotiq 2F-85 (the model's: 86 mm)
+
+
+def narrowest_width(entry: CatalogObject) -> float:
+    """An object's narrowest horizontal width as the catalog stands it (m): the opening a gripper closing across the
+    whole object from above needs. A thin part (a handle, a rim, a wall) may be narrower."""
+    from scipy.spatial import ConvexHull
+
+    xy = entry.points[:, :2]
+    outline = xy[ConvexHull(xy).vertices]
+    edges = np.roll(outline, -1, axis=0) - outline
+    normals = np.stack([-edges[:, 1], edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1, keepdims=True)
+    projected = outline @ normals.T  # the narrowest width is measured across one of the outline's edges
+    return float((projected.max(axis=0) - projected.min(axis=0)).min())

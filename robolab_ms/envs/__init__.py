@@ -11,12 +11,14 @@ task="path/T.yaml")` gets T's length, not the id's (see `use_the_task_episode_le
 
 from __future__ import annotations
 
+import logging
 import sys
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 from gymnasium.envs.registration import WrapperSpec
+from mani_skill import logger as maniskill_logger
 from mani_skill.utils.registration import REGISTERED_ENVS, register_env
 
 from robolab_ms.content import content_dir, content_files, load_yaml
@@ -70,8 +72,14 @@ def register_task_file(path: str | Path, replace: bool = False) -> str:
     env_id = f"RoboLab-{path.stem}-v1"
     known = registered_file(env_id)
     if known is None or (replace and known != path):
-        register_env(env_id, max_episode_steps=_episode_steps(path), override=known is not None,
-                     task=str(path))(RoboLabEnv)  # fmt: skip
+        quiet = maniskill_logger
+        level = quiet.level
+        quiet.setLevel(logging.ERROR)  # not ManiSkill's "Override registered env" warning: replacing is the point
+        try:
+            register_env(env_id, max_episode_steps=_episode_steps(path), override=known is not None,
+                         task=str(path))(RoboLabEnv)  # fmt: skip
+        finally:
+            quiet.setLevel(level)
         spec = gym.registry[env_id]
         spec.additional_wrappers = (*spec.additional_wrappers, TASK_LENGTH_WRAPPER)
     return env_id
