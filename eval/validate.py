@@ -183,13 +183,11 @@ def describe(condition: Any) -> str:
     return f"{condition.predicate}({', '.join(arguments)})"
 
 
-def _flags_unmet(condition: Any) -> str:
-    flags = []
+def _contact_flag(condition: Any) -> str:
+    """What require_contact_with asks, for an object that is placed and let go of but does not count."""
     if condition.require_contact_with:
-        flags.append(f"touching {next(iter(condition.references.values()), 'its reference')}")
-    if condition.require_gripper_detached:
-        flags.append("let go of")
-    return " and ".join(flags) or "its flags"
+        return f"not touching {next(iter(condition.references.values()), 'its reference')} (require_contact_with)"
+    return "its flags unmet"
 
 
 def explain_failure(result: EpisodeResult, watch: EpisodeWatch | None, spec: Any) -> str:
@@ -218,10 +216,11 @@ def explain_failure(result: EpisodeResult, watch: EpisodeWatch | None, spec: Any
         elif name not in watch.touched:
             findings.append(f"{name} never grasped (the fingers never touched it)")
         elif name in final.held:
-            extra = f"; {describe(condition)} would hold once let go" if placed[name] else ""
+            extra = ("; the placement is right, but require_gripper_detached needs it let go of"
+                     if placed[name] and condition.require_gripper_detached else "")  # fmt: skip
             findings.append(f"{name} still held at the end{extra}")
         elif placed[name]:
-            findings.append(f"{name} placed, but not {_flags_unmet(condition)} at the end")
+            findings.append(f"{name} placed, but {_contact_flag(condition)} at the end")
         else:
             last = ends[name][-1] if ends[name] else None
             drops = [end for end in ends[name] if end.gripper_closed]
