@@ -190,7 +190,7 @@ class EpisodeRecorder:
         if not self._started:
             return extras
         self._started = False
-        targets = np.clip(np.asarray(self.actions, dtype=np.float64).reshape(len(self.actions), -1)[:, : self.arm_dims],
+        targets = np.clip(np.asarray(self.actions, dtype=np.float64).reshape(-1, self.arm_dims + 1)[:, : self.arm_dims],
                           self.arm_low, self.arm_high)  # fmt: skip
         metrics = trajectory_metrics(np.asarray(self.ee)[:, :3], np.asarray(self.arm), targets, self.rate_hz)
         extras["metrics"] = {key: (None if math.isnan(value) else round(value, 6)) for key, value in metrics.items()}
@@ -314,3 +314,116 @@ class EpisodeRecorder:
                 "error": error,
             },
         }
+
+
+# ---------------------------------------------------------------------------------------------------- replay
+@dataclass
+class ReplayReport:
+    """How a replayed episode compares with its recording."""
+
+    file: Path
+    steps: int
+    max_state_difference: float  # largest absolute difference of any env state value, over every step
+    first_different_step: int | None  # the first step (0 = after reset) whose state differs beyond the tolerance
+    recorded_success: bool
+    replayed_success: bool
+    recorded_score: float
+    replayed_score: float
+    tolerance: float = 0.0
+
+    @property
+    def matches(self) -> bool:
+        return (self.first_different_step is None and self.recorded_success == self.replayed_success
+                and abs(self.recorded_score - self.replayed_score) <= max(self.tolerance, 1e-6))  # fmt: skip
+
+    def line(self) -> str:
+        verdict = "same" if self.matches else f"DIFFERS from step {self.first_different_step}"
+        return (f"{self.file.name}: {self.steps} steps, {verdict} (largest state difference "
+                f"{self.max_state_difference:.3g}); success {self.recorded_success} -> {self.replayed_success}, "
+                f"score {self.recorded_score:.2f} -> {self.replayed_score:.2f}")  # fmt: skip
+
+
+def find_recordings(path: Path) -> list[Path]:
+    """The recordings (.h5 with a .json beside it) of a results folder, or the one file given, in task and seed
+    order. Files written by ManiSkill's replay tool (dotted names) are left out."""
+    from robolab_ms.errors import RoboLabError
+
+    path = Path(path)
+    if path.is_file():
+        if path.suffix != ".h5" or not path.with_suffix(".json").exists():
+            raise RoboLabError(f"{path}: not a recording; give an .h5 written by `robolab eval --record` (its .json "
+                               "must be next to it) or a results folder")  # fmt: skip
+        return [path]
+    if not path.is_dir():
+        raise RoboLabError(f"{path}: no such file or folder")
+    folder = path / RECORDINGS_DIR if (path / RECORDINGS_DIR).is_dir() else path
+    files = [f for f in folder.rglob("*.h5") if "." not in f.stem and f.with_suffix(".json").exists()]
+    if not files:
+        raise RoboLabError(f"{path}: no recordings found; record episodes with `robolab eval --record --out {path}`")
+
+    def order(file: Path) -> tuple:
+        seed = re.search(r"seed(\d+)$", file.stem)
+        return (file.parent.name, file.stem.rsplit("seed", 1)[0], int(seed.group(1)) if seed else -1)
+
+    return sorted(files, key=order)
+
+
+def _h5_leaves(group: Any, prefix: str = "") -> dict[str, np.ndarray]:
+    import h5py
+
+    leaves = {}
+    for key, item in group.items():
+        if isinstance(item, h5py.Group):
+            leaves.update(_h5_leaves(item, f"{prefix}{key}/"))
+        else:
+            leaves[prefix + key] = item[()]
+    return leaves
+
+
+def replay_recording(file: Path, tolerance: float = 0.0) -> ReplayReport:
+    """Replay one recording in a new environment built from its .json (state observations: nothing is rendered)
+    and compare the env state after reset and after every step with the recorded one."""
+    import gymnasium as gym
+    import h5py
+
+    import robolab_ms.envs  # noqa: F401  (registers the environments)
+    from robolab_ms.errors import RoboLabError
+
+    file = Path(file)
+    meta = json.loads(file.with_suffix(".json").read_text(encoding="utf-8"))
+    try:
+        env_id, kwargs = meta["env_info"]["env_id"], dict(meta["env_info"]["env_kwargs"])
+        episode = meta["episodes"][0]
+    except (KeyError, IndexError, TypeError) as error:
+        raise RoboLabError(f"{file.with_suffix('.json')}: field {error} missing; not a ManiSkill trajectory json") from None
+    robolab = meta.get("robolab", {})
+    with h5py.File(file, "r") as h5:
+        group = h5[f"traj_{episode['episode_id']}"]
+        actions = group["actions"][()]
+        states = _h5_leaves(group["env_states"])
+        recorded_score = float(group["robolab/score"][-1]) if "robolab/score" in group and len(actions) else 0.0
+    kwargs["obs_mode"] = "state_dict"
+    env = gym.make(env_id, **kwargs)
+    try:
+        base = env.unwrapped
+        _, info = env.reset(**episode["reset_kwargs"])
+        worst, first = 0.0, None
+
+        def compare(step: int) -> None:
+            nonlocal worst, first
+            now = _flat_state(base.get_state_dict())
+            difference = max(float(np.max(np.abs(now[key] - states[f"{key}"][step]), initial=0.0)) for key in states)
+            worst = max(worst, difference)
+            if difference > tolerance and first is None:
+                first = step
+
+        compare(0)
+        for step, action in enumerate(actions, start=1):
+            _, _, _, _, info = env.step(action)
+            compare(step)
+        replayed_success = bool(_numpy(info["success"]).reshape(-1)[0]) if len(actions) else False
+        replayed_score = float(_numpy(info["score"]).reshape(-1)[0]) if len(actions) else 0.0
+    finally:
+        env.close()
+    return ReplayReport(file, len(actions), worst, first, bool(robolab.get("success", episode.get("success", False))),
+                        replayed_success, float(robolab.get("score", recorded_score)), replayed_score, tolerance)  # fmt: skip

@@ -42,7 +42,37 @@ def _task_arguments(tasks: list[str]) -> tuple[str, ...]:
     return tuple(resolved)
 
 
+def _add_task_filters(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group(
+        "task selection", "--task all takes every known task; these filters narrow --task (or all tasks when "
+        "--task is not given). Different filters must all hold; several values of one mean any of them.")  # fmt: skip
+    group.add_argument("--tag", nargs="+", metavar="TAG", help="attribute (color, semantics, size, conjunction, "
+                       "counting, spatial, affordance, reorientation, stacking, sorting, vague) or competency axis "
+                       "(visual, relational, procedural), e.g. --tag spatial")  # fmt: skip
+    group.add_argument("--difficulty", nargs="+", metavar="LEVEL", help="simple, moderate or complex")
+    group.add_argument("--scene", nargs="+", metavar="SCENE", help="scene name, as in `robolab list`")
+
+
+def _select_tasks(args: argparse.Namespace) -> None:
+    """Expand `--task all` and apply --tag / --difficulty / --scene: `args.task` becomes the chosen tasks."""
+    from robolab_ms.tasks.selection import ALL_TASKS, describe_filters, filter_tasks, require_some
+    from robolab_ms.tasks.spec import load_task, task_names
+
+    filters = {"tags": args.tag, "difficulties": args.difficulty, "scenes": args.scene}
+    given = list(getattr(args, "task", None) or [])
+    if not any(filters.values()) and ALL_TASKS not in given:
+        return
+    names = [task for task in given if task != ALL_TASKS]
+    if not given or ALL_TASKS in given:
+        names = task_names() + [task for task in names if task not in task_names()]
+    specs = {task: load_task(task) for task in names}  # unknown names and bad files fail here, with suggestions
+    chosen = {id(spec) for spec in filter_tasks(list(specs.values()), **filters)}
+    args.task = [task for task, spec in specs.items() if id(spec) in chosen]
+    require_some(args.task, describe_filters(**filters))
+
+
 def _cmd_list(args: argparse.Namespace) -> int:
+    _select_tasks(args)
     from robolab_ms.content import content_dirs
     from robolab_ms.tasks.spec import load_all_tasks, load_task
 
@@ -62,7 +92,7 @@ def _cmd_list(args: argparse.Namespace) -> int:
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
-    from robolab_ms.analysis.tables import SUMMARY_MD, to_markdown, write_summary
+    from robolab_ms.analysis.tables import SUMMARY_MD, summary_markdown, write_summary
     from robolab_ms.eval.results import EPISODES_FILE
     from robolab_ms.eval.runner import EvalConfig, run_evaluation
     from robolab_ms.policies import make_policy
@@ -70,6 +100,11 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
     if args.episodes < 1:
         raise RoboLabError(f"--episodes must be at least 1, got {args.episodes}")
+    _check_adaptive(args)
+    _select_tasks(args)
+    if not args.task:
+        raise RoboLabError("name the tasks with --task NAME ... (or --task all), or choose them with --tag, "
+                           "--difficulty or --scene")  # fmt: skip
     if args.instruction not in INSTRUCTION_VARIANTS:
         raise RoboLabError(f"--instruction must be one of {', '.join(INSTRUCTION_VARIANTS)}")
     policy = make_policy(args.policy)
@@ -81,18 +116,68 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
         robot = robot_binding(args.robot).uid
     config = EvalConfig(tasks=tasks, episodes=args.episodes, instruction=args.instruction, robot=robot,
-                        first_seed=args.seed, max_steps=args.max_steps)  # fmt: skip
+                        first_seed=args.seed, max_steps=args.max_steps, record=_record_options(args),
+                        episodes_adaptive=args.episodes_adaptive, ci_width=args.ci_width)  # fmt: skip
     out = Path(args.out)
     try:
         results = run_evaluation(policy, config, out, show_progress=not args.quiet)
     except KeyboardInterrupt:
+        from robolab_ms.eval.results import read_results
+
+        write_summary([r for r in read_results(out) if r.policy == policy.name], out)  # tables of what finished
         print(f"\ninterrupted: finished episodes are kept in {out / EPISODES_FILE}; "
               "run the same command again to resume", file=sys.stderr)  # fmt: skip
         return 130
     table = write_summary(results, out)
-    print(to_markdown(table))
+    print(summary_markdown(table))
     print(f"episodes: {out / EPISODES_FILE}\nsummary:  {out / SUMMARY_MD} (and summary.csv)")
     return 0
+
+
+def _check_adaptive(args: argparse.Namespace) -> None:
+    from robolab_ms.eval.runner import ADAPTIVE_MIN_EPISODES
+
+    if args.episodes_adaptive is not None and args.episodes_adaptive < ADAPTIVE_MIN_EPISODES:
+        raise RoboLabError(f"--episodes-adaptive must be at least {ADAPTIVE_MIN_EPISODES}, got {args.episodes_adaptive}")
+    if not 0 < args.ci_width < 1:
+        raise RoboLabError(f"--ci-width must be between 0 and 1 (a width of the success-rate interval), got {args.ci_width}")
+
+
+def _record_options(args: argparse.Namespace):
+    from robolab_ms.eval.recording import RecordOptions
+
+    return RecordOptions(trajectory=args.record or args.record_images, images=args.record_images, video=args.video)
+
+
+def _add_record_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("episodes and recordings")
+    group.add_argument("--episodes-adaptive", type=int, default=None, metavar="MAX_N",
+                       help="instead of --episodes: per task, add episodes until the 95 %% interval of the success "
+                       "rate is at most --ci-width wide, at least 10 and at most MAX_N (RoboLab's presets: 50 with "
+                       "0.30, 200 with 0.14, 400 with 0.10)")  # fmt: skip
+    group.add_argument("--ci-width", type=float, default=0.14, metavar="W",
+                       help="interval width that ends adaptive sampling (default: 0.14)")  # fmt: skip
+    group.add_argument("--record", action="store_true", help="keep each episode as a ManiSkill trajectory file "
+                       "(OUT/recordings/<Task>/*.h5 + .json: actions, env states, proprio), replayable with "
+                       "`robolab replay` and ManiSkill's replay_trajectory")  # fmt: skip
+    group.add_argument("--record-images", action="store_true",
+                       help="--record, with the policy cameras' images in the trajectory files")  # fmt: skip
+    group.add_argument("--video", action="store_true", help="write an mp4 per episode (OUT/videos/<Task>/): policy "
+                       "cameras and the wide video camera, with instruction, step, score and events")  # fmt: skip
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from robolab_ms.eval.recording import find_recordings, replay_recording
+
+    files = find_recordings(Path(args.path))
+    failed = 0
+    for file in files:
+        report = replay_recording(file, tolerance=args.tolerance)
+        print(report.line())
+        failed += not report.matches
+    print(f"{len(files) - failed}/{len(files)} recording(s) reproduced"
+          + (" exactly" if args.tolerance == 0 else f" within {args.tolerance:g}"))  # fmt: skip
+    return 1 if failed else 0
 
 
 def _catalog_file(args: argparse.Namespace) -> Path:
@@ -231,6 +316,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     listing = commands.add_parser("list", help="list the tasks with their attributes and difficulty", parents=[content])
     listing.add_argument("--task", nargs="+", metavar="TASK", help=task_help + " (default: every known task)")
+    _add_task_filters(listing)
     listing.set_defaults(run=_cmd_list)
 
     evaluate = commands.add_parser(
@@ -239,10 +325,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="evaluate a policy on tasks and write results",
         description="Run a policy for N episodes (seeds first_seed .. first_seed+N-1) on each task. Each finished "
         "episode is appended to OUT/episodes.jsonl at once; rerunning the same command skips finished episodes. "
-        "At the end OUT/summary.csv and OUT/summary.md hold success rate (95%% interval), score and Score(fail).",
+        "OUT/summary.csv and OUT/summary.md (rewritten after each task) hold success rate (95% interval), score, "
+        "Score(fail), trajectory metrics and event counts; OUT/tasks/<Task>.csv lists every episode of a task.",
     )
     evaluate.add_argument("--policy", default="random", help="policy name (default: random)")
-    evaluate.add_argument("--task", nargs="+", required=True, metavar="TASK", help=task_help)
+    evaluate.add_argument("--task", nargs="+", metavar="TASK", help=task_help + "; `all` for every task")
     evaluate.add_argument("--episodes", type=int, default=10, help="episodes per task (default: 10)")
     evaluate.add_argument("--out", default="results/latest", help="results folder (default: results/latest)")
     evaluate.add_argument("--instruction", default="default", help="instruction variant: default, vague or specific")
@@ -252,7 +339,21 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--max-steps", type=int, default=None,
                           help="cut episodes after this many control steps (default: the task's length)")  # fmt: skip
     evaluate.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_task_filters(evaluate)
+    _add_record_options(evaluate)
     evaluate.set_defaults(run=_cmd_eval)
+
+    replay = commands.add_parser(
+        "replay",
+        help="replay recorded episodes and check that they come out the same",
+        description="Replay episodes recorded with `robolab eval --record`: rebuild each episode's environment "
+        "from its .json, reset with its seed, step its actions, and compare the environment state after every "
+        "step and the final success and score with the recording. Exits with status 1 when one differs.",
+    )
+    replay.add_argument("path", metavar="PATH", help="a recording (.h5) or a results folder (all its recordings)")
+    replay.add_argument("--tolerance", type=float, default=0.0,
+                        help="largest state difference still counted as the same (default: 0, bit-identical)")  # fmt: skip
+    replay.set_defaults(run=_cmd_replay)
     _add_catalog_commands(commands)
 
     validate = commands.add_parser(
@@ -260,8 +361,8 @@ def build_parser() -> argparse.ArgumentParser:
         parents=[content],
         help="check tasks: stable at rest, not solved at reset, not solved by chance, solved by the oracle",
         description="For each task over SEEDS seeds: the largest object drift over 300 physics steps at rest "
-        "(max 2 cm), success right after reset (must be none), the random policy's success rate (max 10%%) and "
-        "the oracle's (min 90%%) with its time per episode. Writes OUT/validation.csv and OUT/validation.md, the "
+        "(max 2 cm), success right after reset (must be none), the random policy's success rate (max 10%) and "
+        "the oracle's (min 90%) with its time per episode. Writes OUT/validation.csv and OUT/validation.md, the "
         "episodes to OUT/episodes.jsonl (a rerun resumes), and exits with status 1 when a task fails a check.",
     )
     validate.add_argument("--task", nargs="+", metavar="TASK", help=task_help)
