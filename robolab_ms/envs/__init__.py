@@ -61,7 +61,8 @@ def _episode_steps(path: Path) -> int:
 def registered_file(env_id: str) -> Path | None:
     """The task file a RoboLab id loads by default, or None when the id is not registered."""
     spec = REGISTERED_ENVS.get(env_id)
-    return None if spec is None else Path(spec.default_kwargs["task"])
+    task = None if spec is None else spec.default_kwargs.get("task")
+    return None if task is None else Path(task)
 
 
 def register_task_file(path: str | Path, replace: bool = False) -> str:
