@@ -31,6 +31,7 @@ MAX_RANDOM_SUCCESS = 0.10
 MIN_ORACLE_SUCCESS = 0.90
 REPORT_CSV, REPORT_MD = "validation.csv", "validation.md"
 FELL_BELOW_M = -0.05  # an object whose centre ends this far below the table top fell off the table
+NOTABLE_EVENTS = ("wrong_object_grasped", "object_tipped_over", "multiple_objects_grasped")  # added to explanations
 
 
 @dataclass(frozen=True)
@@ -235,9 +236,9 @@ def explain_failure(result: EpisodeResult, watch: EpisodeWatch | None, spec: Any
                 findings.append(f"{name} touched but {describe(condition)} false at the end")
     if not findings:
         findings.append(f"{describe(condition)} holds for some objects but not as `{condition.logical}` needs")
-    others = _event_summary([event for event in events
-                             if event["type"] in ("wrong_object_grasped", "object_tipped_over", "multiple_objects_grasped")])  # fmt: skip
-    return f"ran out of time ({result.steps} steps): " + "; ".join(findings) + (f" [events: {others}]" if others else "")
+    others = _event_summary([event for event in events if event["type"] in NOTABLE_EVENTS])
+    notes = f" [events: {others}]" if others else ""
+    return f"ran out of time ({result.steps} steps): " + "; ".join(findings) + notes
 
 
 def _event_summary(events: list[dict]) -> str:
@@ -258,7 +259,8 @@ def group_explanations(explained: list[tuple[int, str]]) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ one task
-def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True) -> TaskValidation:
+def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0,
+                  show_progress: bool = True) -> TaskValidation:  # fmt: skip
     """Run every check on one task (a name or a task file); episodes go to `out_dir`."""
     from robolab_ms.envs import register_task_file
     from robolab_ms.policies import make_policy

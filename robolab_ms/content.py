@@ -107,9 +107,9 @@ def content_files(kind: str) -> dict[str, Path]:
             if path.stem in found:
                 what = "task" if kind == "tasks" else "scene"
                 raise RoboLabError(
-                    f"{what} '{path.stem}' is defined twice: {found[path.stem]} and {path}. Names must be unique across "
-                    f"the shipped content and the folders of {CONTENT_ENV} / --content; rename one of the files (its "
-                    f"file name is the {what} name, and the name field inside must match)"
+                    f"{what} '{path.stem}' is defined twice: {found[path.stem]} and {path}. Names must be unique "
+                    f"across the shipped content and the folders of {CONTENT_ENV} / --content; rename one of the "
+                    f"files (its file name is the {what} name, and the name field inside must match)"
                 )
             found[path.stem] = path
     return found

@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from robolab_ms.content import CHECKOUT_ENV, CHECKOUT_FILE, CONTENT_ENV
+from robolab_ms.content import CHECKOUT_ENV, CHECKOUT_FILE, CONTENT_ENV, content_dir
 from robolab_ms.errors import RoboLabError, SpecError
 from robolab_ms.scene import read_scene
 from robolab_ms.tasks.spec import load_task, task_names
@@ -78,7 +78,7 @@ def test_a_task_file_finds_its_scene_next_to_it_in_a_sibling_folder_or_by_name(t
     assert rooted.scene.file == tmp_path / "root" / "scene_builders" / "my_scene.yaml"
 
     shipped = load_task(str(task(tmp_path / "other", "ShippedSceneTask", scene="banana_bowl")))
-    assert shipped.scene.name == "banana_bowl" and len(shipped.scene.objects) == 5
+    assert shipped.scene.file == content_dir("scenes") / "banana_bowl.yaml"
 
     with pytest.raises(SpecError, match=r"OtherTask.yaml: field 'scene'.*unknown scene 'my_scen'.*my_scene"):
         load_task(task(tmp_path / "loose", "OtherTask", scene="my_scen"))
@@ -137,7 +137,8 @@ def test_cli_takes_task_files_and_content_folders(tmp_path):
                         str(root), "--episodes", "1", "--max-steps", "3", "--out", str(out), "--quiet")  # fmt: skip
     assert evaluated.returncode == 0, evaluated.stderr
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
-    assert [(e["task"], e["steps"], e["error"]) for e in episodes] == [("LooseTask", 3, None), ("MyBananaTask", 3, None)]
+    assert [(e["task"], e["steps"], e["error"]) for e in episodes] == [("LooseTask", 3, None),
+                                                                       ("MyBananaTask", 3, None)]
     assert episodes[0]["max_steps"] == 3 and episodes[0]["instruction"] == "Put the banana in the bowl."
 
     missing = robolab("validate", "--task", str(tmp_path / "Nope.yaml"), "--out", str(out))

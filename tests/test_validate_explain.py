@@ -19,7 +19,7 @@ name: {name}
 scene: banana_bowl
 episode_seconds: {seconds}
 attributes: [spatial]
-instructions: {{default: Put the banana in the bowl., vague: Tidy up., specific: Put the yellow banana in the white bowl.}}
+instructions: {{default: Put the banana in the bowl., vague: Tidy up., specific: Put the yellow banana in the bowl.}}
 success:
   - {condition}
 """
@@ -97,12 +97,14 @@ def test_each_way_of_failing_gets_its_own_explanation():
         "require_gripper_detached needs it let go of")
     assert explain_failure(_episode(), _watch(placed=True), spec) == (
         "ran out of time (750 steps): banana placed, but not touching bowl (require_contact_with) at the end")
-    assert explain_failure(_episode(), _watch(height=-0.7), spec) == "ran out of time (750 steps): banana fell off the table"
+    fell = explain_failure(_episode(), _watch(height=-0.7), spec)
+    assert fell == "ran out of time (750 steps): banana fell off the table"
     wrong = [{"step": 30, "type": "wrong_object_grasped", "object": "apple"},
              {"step": 90, "type": "wrong_object_grasped", "object": "apple"}]  # fmt: skip
     assert explain_failure(_episode(events=wrong), _watch(touched=()), spec).endswith(
         "[events: wrong_object_grasped apple @30 (x2)]")
-    assert explain_failure(_episode(error="OracleFailure: no motion plan"), None, spec) == "OracleFailure: no motion plan"
+    error = "OracleFailure: no motion plan"
+    assert explain_failure(_episode(error=error), None, spec) == error
     assert explain_failure(_episode(events=wrong), None, spec) == (
         "no success in 750 steps; events: wrong_object_grasped apple @30 (x2)")  # a resumed episode: events only
     assert group_explanations([(1, "a"), (4, "b"), (7, "a")]) == "seed 1, 7: a; seed 4: b"

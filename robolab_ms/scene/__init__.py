@@ -274,8 +274,8 @@ def check_jittered_footprints(fields: Fields, placements: Sequence[ObjectPlaceme
             edge = table_low[axis] if beyond_low[axis] > beyond_high[axis] else table_high[axis]
             raise fields.error(
                 f"objects[{index}].xy",
-                f"'{placement.name}' reaches {over * 100:.1f} cm past the table's edge at {letter} = {edge:.3f} m at some "
-                f"poses the jitter allows ({letter} {low[axis]:.3f}..{high[axis]:.3f} m with jitter.xy "
+                f"'{placement.name}' reaches {over * 100:.1f} cm past the table's edge at {letter} = {edge:.3f} m at "
+                f"some poses the jitter allows ({letter} {low[axis]:.3f}..{high[axis]:.3f} m with jitter.xy "
                 f"{jitter_xy:g} m and jitter.yaw_deg {math.degrees(jitter_yaw):g})",
                 f"Move it at least {over * 100:.1f} cm further in, make table.size[{axis}] larger, or lower the jitter",
             )
