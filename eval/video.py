@@ -4,7 +4,7 @@
 The simulation thread only hands over the rendered images (`EpisodeVideo.add`); laying out the frame, drawing the
 text and encoding (an ffmpeg process fed by imageio) happen on a background thread, so an episode never waits for
 the encoder unless more than `queue_frames` frames are pending. A file appears under its final name only when it is
-complete; an interrupted encode leaves a `*.partial.mp4` behind instead.
+complete: a video not ended before `close()` is dropped, and a killed process leaves at most a `*.partial.mp4`.
 """
 
 from __future__ import annotations
@@ -114,7 +114,7 @@ class EpisodeVideo:
 
     Call `begin(path)` at each episode start, `add(...)` after reset and after each step, `end()` when the episode
     is over (the file is finished in the background), and `close()` once at the end of the run: it waits for every
-    file and raises the first encoding error, if any.
+    file and raises the first encoding error, if any. A video begun but not ended when `close()` comes is dropped.
     """
 
     def __init__(self, fps: int = 15, width: int = VIDEO_WIDTH, queue_frames: int = 64) -> None:
@@ -157,8 +157,9 @@ class EpisodeVideo:
             kind, payload = self._queue.get()
             try:
                 if kind == "begin":
-                    if writer is not None:
+                    if writer is not None:  # the previous video was never ended
                         writer.close()
+                        partial.unlink(missing_ok=True)
                     path = payload
                     path.parent.mkdir(parents=True, exist_ok=True)
                     partial = path.with_name(path.stem + ".partial.mp4")
@@ -166,11 +167,15 @@ class EpisodeVideo:
                                                 macro_block_size=16, ffmpeg_log_level="error")  # fmt: skip
                 elif kind == "frame" and writer is not None:
                     writer.append_data(compose_frame(*payload, width=self.width))
-                elif kind in (_END, _STOP) and writer is not None:
+                elif kind == _END and writer is not None:
                     writer.close()
                     writer = None
                     os.replace(partial, path)
                     self.written.append(path)
+                elif kind == _STOP and writer is not None:  # stopped mid-episode: that video is not kept
+                    writer.close()
+                    writer = None
+                    partial.unlink(missing_ok=True)
             except Exception as error:  # keep draining so the simulation thread never blocks on a dead encoder
                 self._error = self._error or error
                 if writer is not None:

@@ -166,3 +166,22 @@ def test_list_and_eval_choose_tasks_by_filters(tmp_path, capsys):
         with pytest.raises(SystemExit):
             main([command, "--help"])
         assert "%%" not in capsys.readouterr().out
+
+
+def test_video_encoder_keeps_ended_videos_and_drops_an_unfinished_one(tmp_path):
+    from robolab_ms.eval.video import Caption, EpisodeVideo
+
+    views = {"external_left": np.full((180, 320, 3), 90, np.uint8), "wrist": np.full((180, 320, 3), 160, np.uint8)}
+    wide = np.full((360, 640, 3), 200, np.uint8)
+    encoder = EpisodeVideo()
+    encoder.begin(tmp_path / "done.mp4")
+    for step in range(7):
+        encoder.add(views, wide, Caption("Put the banana in the bowl.", step, 6, 0.5, step == 6,
+                                         [{"step": 2, "type": "object_bumped", "object": "apple"}]))  # fmt: skip
+    encoder.end()
+    encoder.begin(tmp_path / "interrupted.mp4")
+    encoder.add(views, wide, Caption("x", 0, 6))
+    encoder.close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["done.mp4"]
+    capture = cv2.VideoCapture(str(tmp_path / "done.mp4"))
+    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == 7
