@@ -121,6 +121,8 @@ class WatchedPolicy:
         self.env: Any = None
 
     def __getattr__(self, name: str) -> Any:
+        if name == "policy":  # not set yet (e.g. while unpickling)
+            raise AttributeError(name)
         return getattr(self.policy, name)
 
     def bind(self, env: Any) -> None:
