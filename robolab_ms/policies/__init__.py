@@ -146,20 +146,15 @@ class RandomPolicy(Policy):
 
 
 class HoldPolicy(Policy):
-    """Holds the arm at the robot's home pose with the gripper open, and answers at once: for checking a set-up
+    """Holds the arm where it is with the gripper open, and answers at once: for checking a set-up
     (`robolab serve --policy hold`) and for measuring what the evaluation path itself costs."""
 
     name = "hold"
-    needs_images = False
-
-    def reset(self, instruction: str, action_space: spaces.Box, seed: int) -> None:
-        from robolab_ms.agents.bindings import DEFAULT_ROBOT, robot_binding
-
-        binding = robot_binding(self.episode.robot if self.episode is not None else DEFAULT_ROBOT)
-        self.action = np.array([*binding.home_arm_qpos, 0.0], dtype=np.float32)
+    needs_images = True  # it reads DROID's joint_position
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
-        return self.action.copy()
+        joints = np.asarray(observation["joint_position"], dtype=np.float32).reshape(-1)
+        return np.append(joints, np.float32(0.0))
 
 
 def _oracle(options: PolicyOptions) -> Policy:

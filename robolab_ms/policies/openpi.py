@@ -36,7 +36,7 @@ def _client_class() -> type:
 
         def _wait_for_server(self) -> tuple[Any, dict]:
             connection = websockets.sync.client.connect(self._uri, compression=None, max_size=None,
-                                                        open_timeout=self.timeout)  # fmt: skip
+                                                        open_timeout=self.timeout, legacy=True)  # fmt: skip
             return connection, msgpack_numpy.unpackb(connection.recv(timeout=self.timeout))
 
         def infer(self, obs: dict) -> dict:

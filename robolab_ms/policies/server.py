@@ -36,6 +36,8 @@ MAX_GR00T_SESSIONS = 32  # episodes kept apart on a GR00T server (its clients ar
 
 
 def _default_action_space(robot: str) -> spaces.Box:
+    """DROID's action space, for clients that do not send theirs."""
+    import mani_skill.envs  # noqa: F401  (registers our environments before robolab_ms.agents is imported)
     from robolab_ms.agents.droid_model import ARM_LOWER, ARM_UPPER
 
     return spaces.Box(np.array([*ARM_LOWER, 0.0], np.float32), np.array([*ARM_UPPER, 1.0], np.float32),
@@ -106,8 +108,13 @@ def _openpi_observation(request: dict[str, Any]) -> tuple[dict[str, Any], dict[s
     return observation, episode
 
 
+def _log_request(peer: Any, episode: dict[str, Any], chunk: np.ndarray, seconds: float) -> None:
+    print(f"request from {peer}: task {episode.get('task')} seed {episode.get('seed')} step {episode.get('step')}: "
+          f"{len(chunk)} actions in {seconds * 1000:.1f} ms", flush=True)  # fmt: skip
+
+
 async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, action_horizon: int,
-                        ready: Callable[[], None]) -> None:  # fmt: skip
+                        ready: Callable[[], None], log_requests: bool) -> None:  # fmt: skip
     import http
 
     import websockets.asyncio.server as ws_server
@@ -136,6 +143,8 @@ async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, act
                                            reason="policy error (traceback sent)")  # fmt: skip
                     return
                 reply = {"actions": chunk, "server_timing": {"infer_ms": (time.perf_counter() - start) * 1000.0}}
+                if log_requests:
+                    _log_request(peer, episode, chunk, time.perf_counter() - start)
                 await connection.send(packer.pack(reply))
         except websockets.ConnectionClosed:
             pass
@@ -155,7 +164,7 @@ async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, act
 
 # ---------------------------------------------------------------------------------------------------- GR00T
 def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_horizon: int,
-                 ready: Callable[[], None]) -> None:  # fmt: skip
+                 ready: Callable[[], None], log_requests: bool) -> None:  # fmt: skip
     import zmq
 
     from robolab_ms.policies.gr00t import gr00t_request_to_droid, pack, unpack
@@ -170,6 +179,7 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
     try:
         while True:
             request = unpack(sock.recv())
+            start = time.perf_counter()
             try:
                 endpoint = request.get("endpoint", "get_action") if isinstance(request, dict) else None
                 if endpoint == "ping":
@@ -183,6 +193,8 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
                         sessions.pop(next(iter(sessions))).policy.close()
                     chunk = session.answer(observation, episode)
                     reply = {"action.joint_position": chunk[None, :, :-1], "action.gripper_position": chunk[None, :, -1:]}
+                    if log_requests:
+                        _log_request("a GR00T client", episode, chunk, time.perf_counter() - start)
                 else:
                     reply = {"error": f"unknown endpoint {endpoint!r}"}
             except Exception as exc:
@@ -195,13 +207,14 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
 
 
 def serve(factory: Callable[[], Policy], host: str = "0.0.0.0", port: int | None = None, protocol: str = "openpi",
-          action_horizon: int = 10, ready: Callable[[], None] | None = None) -> None:  # fmt: skip
-    """Serve the policies `factory` makes until interrupted. `ready` is called once the port is open."""
+          action_horizon: int = 10, ready: Callable[[], None] | None = None, log_requests: bool = False) -> None:  # fmt: skip
+    """Serve the policies `factory` makes until interrupted. `ready` is called once the port is open;
+    `log_requests` prints one line per answered request."""
     port = port or PROTOCOLS[protocol]
     ready = ready or (lambda: None)
     if protocol == "openpi":
-        asyncio.run(_serve_openpi(factory, host, port, action_horizon, ready))
+        asyncio.run(_serve_openpi(factory, host, port, action_horizon, ready, log_requests))
     elif protocol == "gr00t":
-        _serve_gr00t(factory, host, port, action_horizon, ready)
+        _serve_gr00t(factory, host, port, action_horizon, ready, log_requests)
     else:
         raise ValueError(f"unknown protocol {protocol!r}")
