@@ -6,6 +6,7 @@ Examples:
   robolab catalog build | check [--objects NAME ...] | sheet | list
   robolab eval --policy oracle --task BananaInBowl --episodes 10
   robolab validate --task BananaInBowl --seeds 10
+  robolab serve --policy random --port 8000            # then: robolab eval --policy openpi --port 8000 ...
 """
 
 from __future__ import annotations
@@ -13,8 +14,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from robolab_ms.errors import RoboLabError
+
+if TYPE_CHECKING:
+    from robolab_ms.policies import PolicyOptions
 
 
 def _task_arguments(tasks: list[str]) -> tuple[str, ...]:
@@ -107,7 +112,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                            "--difficulty or --scene")  # fmt: skip
     if args.instruction not in INSTRUCTION_VARIANTS:
         raise RoboLabError(f"--instruction must be one of {', '.join(INSTRUCTION_VARIANTS)}")
-    policy = make_policy(args.policy)
+    policy = make_policy(args.policy, _policy_options(args))
     tasks = _task_arguments(args.task)  # unknown names and bad files fail here, with suggestions
     robot = None
     if args.robot:
@@ -117,7 +122,8 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         robot = robot_binding(args.robot).uid
     config = EvalConfig(tasks=tasks, episodes=args.episodes, instruction=args.instruction, robot=robot,
                         first_seed=args.seed, max_steps=args.max_steps, record=_record_options(args),
-                        episodes_adaptive=args.episodes_adaptive, ci_width=args.ci_width)  # fmt: skip
+                        episodes_adaptive=args.episodes_adaptive, ci_width=args.ci_width, retry_errors=args.retry_errors,
+                        save_actions=args.save_actions, reconnect_seconds=args.reconnect_seconds)  # fmt: skip
     out = Path(args.out)
     try:
         results = run_evaluation(policy, config, out, show_progress=not args.quiet)
@@ -131,6 +137,72 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     table = write_summary(results, out)
     print(summary_markdown(table))
     print(f"episodes: {out / EPISODES_FILE}\nsummary:  {out / SUMMARY_MD} (and summary.csv)")
+    return 0
+
+
+def _policy_options(args: argparse.Namespace) -> PolicyOptions:
+    from robolab_ms.policies import PolicyOptions
+
+    horizon, timeout = getattr(args, "open_loop_horizon", 8), getattr(args, "timeout", 60.0)
+    if horizon < 1:
+        raise RoboLabError(f"--open-loop-horizon must be at least 1, got {horizon}")
+    if not timeout > 0:
+        raise RoboLabError(f"--timeout must be a positive number of seconds, got {timeout}")
+    return PolicyOptions(host=args.host, port=args.port, open_loop_horizon=horizon, timeout=timeout,
+                         replay_from=Path(args.replay_from) if args.replay_from else None,
+                         replay_policy=args.replay_policy, action_horizon=getattr(args, "action_horizon", 10))  # fmt: skip
+
+
+def _add_policy_options(parser: argparse.ArgumentParser, default_host: str, client: bool = True) -> None:
+    group = parser.add_argument_group(
+        "policy options",
+        "openpi: DROID observations (224x224 images padded, joints, gripper, prompt) over openpi's websocket "
+        "protocol; gr00t: GR00T's DROID keys (180x320 images, joints, gripper, eef_9d) over ZMQ + msgpack; "
+        "replay: actions recorded with --save-actions; module.path:factory: an in-process LeRobot-style policy "
+        "(reset(), select_action(batch)). See docs/policies.md.",
+    )
+    group.add_argument("--host", default=default_host, help=f"policy server host (default: {default_host})")
+    group.add_argument("--port", type=int, default=None, help="policy server port (default: 8000 for openpi, "
+                       "5555 for gr00t)")  # fmt: skip
+    if client:
+        group.add_argument("--open-loop-horizon", type=int, default=8, metavar="N",
+                           help="actions of each chunk executed before the server is asked again (default: 8)")  # fmt: skip
+        group.add_argument("--timeout", type=float, default=60.0, metavar="SECONDS",
+                           help="longest wait for one reply; a later one errors the episode (default: 60)")  # fmt: skip
+    group.add_argument("--replay-from", metavar="DIR", help="replay: a results folder written with --save-actions")
+    group.add_argument("--replay-policy", metavar="NAME",
+                       help="replay: whose actions, when DIR holds several policies' (default: the only one)")  # fmt: skip
+
+
+def _cmd_serve(args: argparse.Namespace) -> int:
+    from robolab_ms.policies import make_policy
+    from robolab_ms.policies.server import PROTOCOLS, serve
+
+    if args.policy in ("openpi", "gr00t"):
+        raise RoboLabError(f"--policy {args.policy} is a client; serve one of our policies (random, hold, replay, "
+                           "module.path:factory)")  # fmt: skip
+    if args.action_horizon < 1:
+        raise RoboLabError(f"--action-horizon must be at least 1, got {args.action_horizon}")
+    options = _policy_options(args)
+    first = make_policy(args.policy, options)  # a bad name or option fails here, before the port opens
+    if first.privileged:
+        raise RoboLabError(f"policy '{args.policy}' reads the simulator's state and cannot be served")
+    first.close()
+    port = args.port or PROTOCOLS[args.protocol]
+
+    def ready() -> None:
+        client = f"--policy {args.protocol} --port {port}"
+        print(f"robolab serve: policy '{first.name}' on {args.host}:{port} ({args.protocol} protocol, chunks of "
+              f"{args.action_horizon}); evaluate with `robolab eval {client} --task ...`; Ctrl-C stops", flush=True)  # fmt: skip
+
+    try:
+        serve(lambda: make_policy(args.policy, options), args.host, port, args.protocol, args.action_horizon, ready,
+              log_requests=args.log_requests)  # fmt: skip
+    except OSError as exc:
+        raise RoboLabError(f"cannot listen on {args.host}:{port}: {exc.strerror or exc}; is another server "
+                           "running there? Choose another --port") from None  # fmt: skip
+    except KeyboardInterrupt:
+        return 0
     return 0
 
 
@@ -328,7 +400,8 @@ def build_parser() -> argparse.ArgumentParser:
         "OUT/summary.csv and OUT/summary.md (rewritten after each task) hold success rate (95% interval), score, "
         "Score(fail), trajectory metrics and event counts; OUT/tasks/<Task>.csv lists every episode of a task.",
     )
-    evaluate.add_argument("--policy", default="random", help="policy name (default: random)")
+    evaluate.add_argument("--policy", default="random",
+                          help="random, hold, oracle, replay, openpi, gr00t, or module.path:factory (default: random)")  # fmt: skip
     evaluate.add_argument("--task", nargs="+", metavar="TASK", help=task_help + "; `all` for every task")
     evaluate.add_argument("--episodes", type=int, default=10, help="episodes per task (default: 10)")
     evaluate.add_argument("--out", default="results/latest", help="results folder (default: results/latest)")
@@ -339,6 +412,13 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--max-steps", type=int, default=None,
                           help="cut episodes after this many control steps (default: the task's length)")  # fmt: skip
     evaluate.add_argument("--quiet", action="store_true", help="no progress bar")
+    evaluate.add_argument("--retry-errors", action="store_true",
+                          help="run episodes again whose result is errored (a plain rerun skips them)")  # fmt: skip
+    evaluate.add_argument("--save-actions", action="store_true",
+                          help="keep each episode's executed actions in OUT/actions/ (for --policy replay)")  # fmt: skip
+    evaluate.add_argument("--reconnect-seconds", type=float, default=30.0, metavar="SECONDS",
+                          help="after a lost policy server, keep trying to reconnect this long (default: 30)")  # fmt: skip
+    _add_policy_options(evaluate, "127.0.0.1")
     _add_task_filters(evaluate)
     _add_record_options(evaluate)
     evaluate.set_defaults(run=_cmd_eval)
@@ -354,6 +434,22 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--tolerance", type=float, default=0.0,
                         help="largest state difference still counted as the same (default: 0, bit-identical)")  # fmt: skip
     replay.set_defaults(run=_cmd_replay)
+
+    serving = commands.add_parser(
+        "serve",
+        help="serve one of our policies over openpi's (or GR00T's) protocol",
+        description="Serve a policy (random, hold, replay, module.path:factory) as a policy server, so the remote "
+        "path of `robolab eval --policy openpi` (or gr00t) can be checked on this machine. Several clients at "
+        "once, each with its own policy instance, seeded from the episode seed each client sends.",
+    )
+    serving.add_argument("--policy", default="random", help="the policy to serve (default: random)")
+    serving.add_argument("--protocol", choices=("openpi", "gr00t"), default="openpi",
+                         help="openpi websocket (default) or GR00T ZMQ")  # fmt: skip
+    serving.add_argument("--action-horizon", type=int, default=10, metavar="H",
+                         help="actions per reply chunk (default: 10, as pi0)")  # fmt: skip
+    serving.add_argument("--log-requests", action="store_true", help="print one line per answered request")
+    _add_policy_options(serving, "0.0.0.0", client=False)
+    serving.set_defaults(run=_cmd_serve)
     _add_catalog_commands(commands)
 
     validate = commands.add_parser(
