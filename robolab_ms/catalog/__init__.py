@@ -274,12 +274,12 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     default_rgba = [*COLOR_NAMES[colors[0]], 1.0] if colors else None
     rgba = fields.number_list("rgba", 4, default_rgba, low=0.0, high=1.0)
     if rgba is None:
-        raise fields.error("rgba", "is missing and there is no colour name to derive it from", "Add colors or rgba")
+        raise fields.error("colors", "is empty and rgba is not given", "Name at least one colour, or give rgba")
     palette = (tuple(rgba), *((*COLOR_NAMES[color], 1.0) for color in colors[1:]))
     friction = fields.sub("friction")
     friction.only(["static", "dynamic"])
     static_friction = friction.positive("static", MAX_FRICTION)
-    dynamic_friction = friction.number("dynamic", 0.0, MAX_FRICTION)
+    dynamic_friction = friction.positive("dynamic", MAX_FRICTION)
     if dynamic_friction > static_friction:
         raise friction.error("dynamic", f"must be between 0 and static ({static_friction}), got {dynamic_friction}")
     mass = fields.positive("mass", MAX_MASS, unit="kg")
@@ -316,6 +316,8 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
             raise source.error("paths", "is empty", "List the mesh files inside the package")
         for index, path in enumerate(paths):
             check_kind(path, str, lambda problem, fix, index=index: source.error(f"paths[{index}]", problem, fix))
+            if path in paths[:index]:
+                raise source.error(f"paths[{index}]", f"'{path}' is listed twice", "List each mesh file once")
         source_record = {
             "kind": kind, "package": source.get("package", str), "paths": paths,
             "textured": source.get("textured", bool, False), "collision_pieces": source.get("collision_pieces", str, ""),
