@@ -227,8 +227,14 @@ def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog:
                                    f"Make size[{axis}] larger or move the objects closer together")  # fmt: skip
             raise fields.error(f"objects[{index}].xy", f"'{placement.name}' reaches past the table's edge ({where}; "
                                f"the table spans {letter} {low:.3f}..{high:.3f} m)", "Move it further in")  # fmt: skip
+    lows = np.array([outline.min(axis=0) for outline in outlines])
+    highs = np.array([outline.max(axis=0) for outline in outlines])
+    boxes_meet = ((np.minimum(highs[:, None], highs[None]) - np.maximum(lows[:, None], lows[None])) > OVERLAP_TOLERANCE
+                  ).all(axis=-1)  # fmt: skip
     for later in range(len(placements)):
         for earlier in range(later):
+            if not boxes_meet[later, earlier]:  # apart already by their bounding boxes
+                continue
             depth = _overlap(outlines[earlier], outlines[later])
             if depth <= OVERLAP_TOLERANCE:
                 continue

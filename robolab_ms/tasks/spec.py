@@ -241,6 +241,9 @@ def _read_logical(fields: Fields, count: int) -> tuple[str, int]:
     if fields.has("k") and logical != "choose":
         raise fields.error("k", f"applies only with logical: choose (this is '{logical}')",
                            "Leave k out, or set logical: choose")  # fmt: skip
+    if logical == "choose" and not fields.has("k"):
+        raise fields.error("k", "is missing: logical choose needs the number of objects to choose",
+                           f"Add k (1 to {count})")  # fmt: skip
     if logical == "choose" and not 1 <= k <= count:
         raise fields.error("k", f"must be between 1 and the number of objects ({count}), got {k}")
     return logical, k
