@@ -51,3 +51,12 @@ def test_reading_specs_imports_no_simulator():
             "print(sorted(m for m in ('mani_skill', 'sapien') if m in sys.modules))")  # fmt: skip
     result = run_python("-c", code)
     assert result.returncode == 0 and result.stdout.strip() == "[]" and result.stderr == "", result.stderr
+
+
+@pytest.mark.parametrize("module", ["robolab_ms.agents", "robolab_ms.scene.builder"])
+def test_importing_a_module_that_brings_up_maniskill_still_registers(module):
+    # ManiSkill's environments come up half-way through these imports; registration must wait for them, not fail
+    code = f"import {module}, gymnasium as gym; print('RoboLab-BananaInBowl-v1' in gym.registry)"
+    result = run_python("-c", code, env={"PYTHONWARNINGS": "ignore"})
+    assert result.returncode == 0 and result.stdout.strip().splitlines()[-1] == "True", result.stdout + result.stderr
+    assert "could not register" not in result.stderr
