@@ -150,7 +150,8 @@ def _policy_options(args: argparse.Namespace) -> PolicyOptions:
         raise RoboLabError(f"--timeout must be a positive number of seconds, got {timeout}")
     return PolicyOptions(host=args.host, port=args.port, open_loop_horizon=horizon, timeout=timeout,
                          replay_from=Path(args.replay_from) if args.replay_from else None,
-                         replay_policy=args.replay_policy, action_horizon=getattr(args, "action_horizon", 10))  # fmt: skip
+                         replay_policy=args.replay_policy, action_horizon=getattr(args, "action_horizon", 10),
+                         gr00t_version=getattr(args, "gr00t_version", "n1.6"))  # fmt: skip
 
 
 def _add_policy_options(parser: argparse.ArgumentParser, default_host: str, client: bool = True) -> None:
@@ -169,6 +170,9 @@ def _add_policy_options(parser: argparse.ArgumentParser, default_host: str, clie
                            help="actions of each chunk executed before the server is asked again (default: 8)")  # fmt: skip
         group.add_argument("--timeout", type=float, default=60.0, metavar="SECONDS",
                            help="longest wait for one reply; a later one errors the episode (default: 60)")  # fmt: skip
+        group.add_argument("--gr00t-version", choices=("n1.6", "n1.5"), default="n1.6",
+                           help="gr00t: the server's request format, N1.6's policy server (default) or N1.5's "
+                           "inference service")  # fmt: skip
     group.add_argument("--replay-from", metavar="DIR", help="replay: a results folder written with --save-actions")
     group.add_argument("--replay-policy", metavar="NAME",
                        help="replay: whose actions, when DIR holds several policies' (default: the only one)")  # fmt: skip

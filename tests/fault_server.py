@@ -117,6 +117,9 @@ def serve_gr00t(port: int, fault_of, log) -> None:
             sock.send(msgpack.packb({"status": "ok", "server": "robolab_ms"}))
             continue
         data = request["data"]
+        nested = isinstance(data.get("observation"), dict)  # N1.6: {"observation": ..., "options": ...}
+        if nested:
+            data = data["observation"]
         log.write(json.dumps(describe(data)) + "\n")
         log.flush()
         fault = fault_of(data.get("robolab.seed"))
@@ -127,6 +130,8 @@ def serve_gr00t(port: int, fault_of, log) -> None:
             reply = {"action.joint_position": chunk[None, :, :-1], "action.gripper_position": chunk[None, :, -1:]}
             if fault == "missing":
                 reply.pop("action.gripper_position")
+            if nested:
+                reply = [reply, {}]
         sock.send(msgpack.packb(reply, default=encode))
 
 

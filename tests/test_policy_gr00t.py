@@ -45,13 +45,14 @@ def test_gr00t_through_serve(tmp_path):
     assert result.error is None and result.steps == 10 and result.queries == 2
     assert result.endpoint == f"tcp://127.0.0.1:{port}"
     assert result.policy_metadata["server"] == "robolab_ms" and result.policy_metadata["protocol"] == "gr00t"
+    assert result.policy_metadata["request_format"] == "n1.6"
 
 
 def test_gr00t_request_format_and_faults(tmp_path):
     port, log = free_port(), tmp_path / "requests.jsonl"
     server = fault_server("gr00t", port, FAULTS, log)
     try:
-        results = run_evaluation(make_policy("gr00t", PolicyOptions(port=port, timeout=1.0)),
+        results = run_evaluation(make_policy("gr00t", PolicyOptions(port=port, timeout=1.0, gr00t_version="n1.5")),
                                  EvalConfig(tasks=("BananaInBowl",), episodes=8, max_steps=3), tmp_path,
                                  show_progress=False)  # fmt: skip
     finally:

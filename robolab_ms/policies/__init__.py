@@ -39,6 +39,9 @@ class PolicyOptions:
     replay_from: a results folder written with `--save-actions` (replay).
     replay_policy: whose recorded actions to replay when that folder holds several policies' (replay).
     action_horizon: length of the chunks a served policy answers with (`robolab serve`).
+    gr00t_version: the GR00T server's request format: `n1.6` (data = {"observation": ..., "options": ...},
+        replies [actions, info]; GR00T N1.6's server with its sim policy wrapper) or `n1.5` (data = the
+        observation, replies the actions).
     """
 
     host: str = "127.0.0.1"
@@ -48,6 +51,7 @@ class PolicyOptions:
     replay_from: Path | None = None
     replay_policy: str | None = None
     action_horizon: int = 10
+    gr00t_version: str = "n1.6"
 
 
 class PolicyError(RoboLabError):
@@ -178,7 +182,8 @@ def _openpi(options: PolicyOptions) -> Policy:
 def _gr00t(options: PolicyOptions) -> Policy:
     from robolab_ms.policies.gr00t import Gr00tPolicy
 
-    return Gr00tPolicy(options.host, options.port or 5555, options.open_loop_horizon, options.timeout)
+    return Gr00tPolicy(options.host, options.port or 5555, options.open_loop_horizon, options.timeout,
+                       options.gr00t_version)  # fmt: skip
 
 
 POLICIES: dict[str, Callable[[PolicyOptions], Policy]] = {

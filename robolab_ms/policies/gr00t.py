@@ -1,7 +1,9 @@
 """The GR00T client: NVIDIA GR00T policies served for DROID over ZMQ request/reply with msgpack.
 
-Each query is `{"endpoint": "get_action", "data": observation}`, with numpy arrays packed as `.npy` bytes inside
-msgpack (`{"__ndarray_class__": true, "as_npy": ...}`), as GR00T's inference service does. The observation:
+Each query is `{"endpoint": "get_action", "data": {"observation": observation, "options": null}}` (GR00T N1.6's
+policy server, the default) or `{"endpoint": "get_action", "data": observation}` (N1.5's inference service,
+`--gr00t-version n1.5`), with numpy arrays packed as `.npy` bytes inside msgpack
+(`{"__ndarray_class__": true, "as_npy": ...}`). The observation:
 
     video.exterior_image_1_left, video.wrist_image_left   uint8 (1, 1, 180, 320, 3): batch, time, H, W, RGB;
                                                            resized without padding (stretched) when needed
@@ -31,6 +33,7 @@ ROBOLAB_KEY_PREFIX = "robolab."
 # (post-multiplied); the 6-D rotation is the first two rows of the corrected matrix.
 DROID_EEF_CORRECTION = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 PING_TIMEOUT = 5.0  # s
+VERSIONS = ("n1.6", "n1.5")
 
 
 # ---------------------------------------------------------------------------------------------------- wire format
@@ -107,7 +110,10 @@ def droid_to_gr00t(observation: dict[str, Any]) -> dict[str, Any]:
 
 
 def gr00t_request_to_droid(data: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """GR00T request data -> (DROID observation with a leading env dimension, robolab episode fields)."""
+    """GR00T request data (either version) -> (DROID observation with a leading env dimension, robolab episode
+    fields)."""
+    if isinstance(data.get("observation"), dict):
+        data = data["observation"]
     observation: dict[str, Any] = {}
     episode: dict[str, Any] = {}
     for key, value in data.items():
@@ -165,9 +171,11 @@ class Gr00tPolicy(ChunkedPolicy):
     needs_images = True
 
     def __init__(self, host: str = "127.0.0.1", port: int = 5555, open_loop_horizon: int = 8,
-                 timeout: float = 60.0) -> None:  # fmt: skip
+                 timeout: float = 60.0, version: str = "n1.6") -> None:  # fmt: skip
         super().__init__(open_loop_horizon)
-        self.host, self.port, self.timeout = host, port, timeout
+        if version not in VERSIONS:
+            raise PolicyUnavailableError(f"--gr00t-version must be one of {', '.join(VERSIONS)}, got {version!r}")
+        self.host, self.port, self.timeout, self.version = host, port, timeout, version
         self.endpoint = f"tcp://{host}:{port}"
         self._context: Any = None
         self._socket: Any = None
@@ -195,6 +203,7 @@ class Gr00tPolicy(ChunkedPolicy):
                                          f"({exc}): is it a GR00T policy server?") from None  # fmt: skip
         self._metadata = dict(reply) if isinstance(reply, dict) else {"ping": reply}
         self._metadata.setdefault("protocol", "gr00t")
+        self._metadata.setdefault("request_format", self.version)
         self.needs_reconnect = False
 
     def metadata(self) -> dict[str, Any]:
@@ -229,7 +238,8 @@ class Gr00tPolicy(ChunkedPolicy):
         if self._metadata.get("server") == "robolab_ms":
             data.update({ROBOLAB_KEY_PREFIX + key: value for key, value in self.episode_fields().items()})
         try:
-            reply = self._call({"endpoint": "get_action", "data": data}, self.timeout)
+            envelope = {"observation": data, "options": None} if self.version == "n1.6" else data
+            reply = self._call({"endpoint": "get_action", "data": envelope}, self.timeout)
         except Exception as exc:
             if isinstance(exc, (PolicyTimeout, PolicyConnectionLost)):
                 raise

@@ -7,7 +7,8 @@ Two protocols:
   each with its own policy instance.
 - `gr00t` (port 5555): a ZMQ reply socket speaking GR00T's protocol: `{"endpoint": "get_action", "data": {...}}`
   requests, numpy arrays as `.npy` bytes inside msgpack, `{"action.joint_position", "action.gripper_position"}`
-  replies; `ping` answers with the metadata.
+  replies (as `[actions, info]` to N1.6-style requests, whose data is `{"observation": ..., "options": ...}`);
+  `ping` answers with the metadata.
 
 The served policy is reset when an episode starts: a robolab_ms client sends the episode's task, variant, robot,
 seed and step with each observation (`robolab/*` keys for openpi, `robolab.*` for GR00T), so the served policy is
@@ -193,6 +194,8 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
                         sessions.pop(next(iter(sessions))).policy.close()
                     chunk = session.answer(observation, episode)
                     reply = {"action.joint_position": chunk[None, :, :-1], "action.gripper_position": chunk[None, :, -1:]}
+                    if isinstance(request["data"].get("observation"), dict):
+                        reply = [reply, {}]  # N1.6's format: (actions, info)
                     if log_requests:
                         _log_request("a GR00T client", episode, chunk, time.perf_counter() - start)
                 else:
