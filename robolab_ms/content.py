@@ -287,12 +287,22 @@ def check_kind(value: Any, kind: type[T] | tuple[type, ...], make_error: Callabl
     if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
         expected = " or ".join(KIND_NAMES.get(k, k.__name__) for k in kinds)
         expected = f"{'an' if expected[0] in 'aeiou' else 'a'} {expected}"
-        raise make_error(f"must be {expected}, got {value!r}", f"Write {expected} here")
+        fix = f"Write {expected} here"
+        if float in kinds and isinstance(value, str) and _reads_as_number(value):
+            fix = "YAML reads a number like 1e9 as text: write 1.0e+9 (a dot and a signed exponent) or the plain number"
+        raise make_error(f"must be {expected}, got {value!r}", fix)
     if isinstance(value, float) and not math.isfinite(value):
         raise make_error(f"must be a finite number, got {value}", "Write a plain number such as 0.5")
     if isinstance(value, str) and not value.strip():
         raise make_error("is empty", "Write some text")
     return value
+
+
+def _reads_as_number(text: str) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
 
 
 def check_range(value: float, low: float, high: float, above: bool, unit: str,

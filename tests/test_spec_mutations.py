@@ -408,3 +408,31 @@ def test_every_broken_field_of_a_catalog_entry_is_reported(tmp_path, name):
     problems = file_level_problems(data, file, read_catalog)
     problems += run_mutations("catalog", name, data, file, read_catalog)
     assert not problems, f"{len(problems)} wrong outcomes:\n" + "\n".join(problems)
+
+
+BROKEN_TASK = """name: Broken
+scene: banana_bowl
+episode_seconds: 0.05
+instructions: {default: a, vague: b, specific: c}
+success:
+  - {predicate: in_container, objects: [banana], container: bowl}
+"""
+
+
+def test_a_broken_task_file_is_refused_however_it_arrives(tmp_path, capsys):
+    """gym.make(..., task=path) and the CLI's list, validate and eval all read the file through read_task."""
+    import gymnasium as gym
+
+    import robolab_ms.envs  # noqa: F401  (registers the RoboLab ids)
+    from robolab_ms.cli import main
+
+    path = tmp_path / "Broken.yaml"
+    path.write_text(BROKEN_TASK)
+    with pytest.raises(SpecError) as error:
+        gym.make("RoboLab-BananaInBowl-v1", task=str(path))
+    assert error.value.file == str(path) and error.value.field == "episode_seconds"
+    assert "shorter than one control step" in str(error.value)
+    for command in (["list"], ["validate"], ["eval", "--policy", "oracle", "--out", str(tmp_path / "out")]):
+        assert main([*command, "--task", str(path)]) == 2, command
+        printed = capsys.readouterr().err
+        assert f"{path}: field 'episode_seconds'" in printed and "Traceback" not in printed, (command, printed)
