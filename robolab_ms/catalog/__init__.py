@@ -342,6 +342,9 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
             raise fields.error("dimensions", "is missing for a mesh object", "Run 'robolab catalog build' to fill it in")
     if is_container and interior is None:
         raise fields.error("interior", "is missing for a container", "Give the inner size [x, y, z] in metres")
+    if interior is not None and dimensions is not None and any(i > d for i, d in zip(interior, dimensions)):
+        raise fields.error("interior", f"{interior} is larger than the object's dimensions {dimensions}",
+                           "Give the inner size, which fits within the outer one")  # fmt: skip
     return CatalogObject(
         name=name,
         object_class=fields.choice("class", OBJECT_CLASSES),

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -323,6 +324,9 @@ def read_task(file: Path) -> TaskSpec:
     name = fields.get("name", str)
     if name != file.stem:
         raise fields.error("name", f"'{name}' differs from the file name '{file.stem}'", "Make them the same")
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
+        raise fields.error("name", f"'{name}' is not usable in an environment id (RoboLab-{name}-v1)",
+                           "Use letters, digits and underscores, starting with a letter, e.g. BananaInBowl")  # fmt: skip
     scene_field = fields.get("scene", str)
     if scene_field.endswith(".yaml"):  # a scene file next to the task file (for authoring and tests)
         scene_path = (file.parent / scene_field).resolve()
