@@ -3,6 +3,8 @@ give the same success, score and step count seed by seed."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from servers import free_port, robolab_serve
@@ -12,7 +14,8 @@ from robolab_ms.eval.runner import EvalConfig, run_evaluation
 from robolab_ms.policies import PolicyOptions, make_policy
 from robolab_ms.policies.replay import actions_file
 
-# Short oracle episodes: at seed 1 the first two succeed within 64 steps, the others are cut there mid-task.
+# Five tasks, cut at 64 steps: the oracle is mid-task there (a grasp, a lift, an object on its way), and replays
+# must reproduce its partial scores exactly.
 TASKS = ("PickUpGreenObject", "PickGlasses", "MouseOnKeyboard", "BananaInBowl", "RubiksCubeLeftOfBowl")
 CONFIG = EvalConfig(tasks=TASKS, episodes=1, first_seed=1, max_steps=64)
 
@@ -22,9 +25,10 @@ def _outcomes(results) -> dict:
 
 
 def test_oracle_actions_replayed_through_serve_and_openpi_reproduce_the_episodes(tmp_path):
-    recorded = run_evaluation(make_policy("oracle"), CONFIG, tmp_path / "oracle", show_progress=False)
+    recording = replace(CONFIG, save_actions=True)  # what `robolab eval --save-actions` sets
+    recorded = run_evaluation(make_policy("oracle"), recording, tmp_path / "oracle", show_progress=False)
     assert all(r.error is None for r in recorded)
-    assert sum(r.success for r in recorded) >= 2
+    assert sum(r.score > 0 for r in recorded) >= 2  # the episodes did something worth reproducing
     actions = np.load(actions_file(tmp_path / "oracle", "oracle", "PickGlasses", "default", "droid", 1))
     assert actions.dtype == np.float32 and actions.shape == (recorded[1].steps, 8)
 
