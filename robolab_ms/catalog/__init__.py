@@ -14,6 +14,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robolab_ms.catalog.appearance import (
+    cylinder_mesh,
+    part_look,
+    projected_mesh,
+    render_material,
+    sidecar_texture_material,
+    visual_mesh_builder,
+)
 from robolab_ms.catalog.meshes import hull_volume, package_file, read_hulls
 from robolab_ms.catalog.procedural import (
     GENERATORS,
@@ -156,7 +164,7 @@ class CatalogObject:
         """Build this object as a dynamic actor called `name` (in a ManiSkill scene, or a plain SAPIEN scene)."""
         import sapien
 
-        builder = scene.create_actor_builder()
+        builder = visual_mesh_builder(scene)
         material = sapien.pysapien.physx.PhysxMaterial(self.static_friction, self.dynamic_friction, self.restitution)
         if self.parts:
             self._add_parts(builder, material)
@@ -166,10 +174,10 @@ class CatalogObject:
         return builder.build(name=name)
 
     def _render_materials(self) -> list:
-        import sapien
-
+        """One material per colour of the object (tint 0, 1, ...), each with an image texture made from that
+        colour and the kind of surface the part is (see robolab_ms.catalog.appearance)."""
         colours = self.palette or (self.rgba,)
-        return [sapien.render.RenderMaterial(base_color=list(rgba), roughness=0.6) for rgba in colours]
+        return [render_material(part_look(self, tint)) for tint in range(len(colours))]
 
     def _add_parts(self, builder, material) -> None:
         import sapien
@@ -190,20 +198,22 @@ class CatalogObject:
                 builder.add_capsule_visual(
                     pose=pose, radius=part.size[0], half_length=part.size[1], material=render_material
                 )
-            else:
+            else:  # SAPIEN's cylinder visual has no texture coordinates: a generated mesh carries the texture
                 builder.add_cylinder_collision(radius=part.size[0], half_length=part.size[1], **common)
-                builder.add_cylinder_visual(
-                    pose=pose, radius=part.size[0], half_length=part.size[1], material=render_material
-                )
+                builder.add_visual_mesh(cylinder_mesh(part.size[0], part.size[1]), render_material, pose)
 
     def _add_mesh(self, builder, material) -> None:
         import sapien
 
         transform = self.transform or MeshTransform()
         pose = sapien.Pose(p=list(transform.translation), q=list(transform.quaternion))
-        render_material = None if self.source.get("textured") else self._render_materials()[0]
         for path in self.visual_files():
-            builder.add_visual_from_file(str(path), pose=pose, scale=list(transform.scale), material=render_material)
+            if self.source.get("textured"):
+                builder.add_visual_from_file(str(path), pose=pose, scale=list(transform.scale),
+                                             material=sidecar_texture_material(path))  # fmt: skip
+            else:  # no texture of its own: texture coordinates projected from the shape, a texture of its kind
+                mesh = projected_mesh(str(path), tuple(transform.scale))
+                builder.add_visual_mesh(mesh, self._render_materials()[0], pose)
         builder.add_multiple_convex_collisions_from_file(
             str(self.collision_file), material=material, density=self.density
         )

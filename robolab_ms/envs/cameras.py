@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import sapien
+import torch
 from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 from transforms3d.quaternions import mat2quat, quat2mat
@@ -91,23 +93,113 @@ def check_cameras(names: Sequence[str], width: int, height: int) -> tuple[str, .
 
 
 def policy_camera_configs(
-    names: Sequence[str], width: int, height: int, wrist_mount, wrist_pose: sapien.Pose
+    names: Sequence[str], width: int, height: int, wrist_mount, wrist_pose: sapien.Pose, render_quality: str = "fast"
 ) -> list[CameraConfig]:
     """ManiSkill camera configs for the policy cameras `names` (any of POLICY_CAMERAS)."""
+    shader = SHADER_PACKS[check_render_quality(render_quality)]
     configs = []
     for name in names:
         if name == "wrist":
             intrinsic = scaled_intrinsic(WRIST_FOCAL_NATIVE, width, height)
-            configs.append(CameraConfig(name, wrist_pose, width, height, intrinsic=intrinsic, near=0.01, far=10,
-                                        mount=wrist_mount))  # fmt: skip
+            configs.append(CameraConfig(name, wrist_pose, width, height, intrinsic=intrinsic, near=0.01, far=FAR,
+                                        mount=wrist_mount, shader_pack=shader))  # fmt: skip
         else:
             intrinsic = scaled_intrinsic(EXTERNAL_FOCAL_NATIVE, width, height)
             pose = external_pose(name.removeprefix("external_"))
-            configs.append(CameraConfig(name, pose, width, height, intrinsic=intrinsic, near=0.01, far=10))
+            configs.append(CameraConfig(name, pose, width, height, intrinsic=intrinsic, near=0.01, far=FAR,
+                                        shader_pack=shader))  # fmt: skip
     return configs
 
 
-def video_camera_config(width: int, height: int) -> CameraConfig:
+def video_camera_config(width: int, height: int, render_quality: str = "fast") -> CameraConfig:
     """A wide third-person view for recordings (`env.render()`); never part of the observations."""
     pose = sapien_utils.look_at(eye=[1.45, 0.85, 0.85], target=[0.45, 0.0, 0.1])
-    return CameraConfig("video", pose, width, height, fov=math.radians(60), near=0.01, far=10)
+    return CameraConfig("video", pose, width, height, fov=math.radians(60), near=0.01, far=FAR,
+                        shader_pack=SHADER_PACKS[check_render_quality(render_quality)])  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------------------- render quality
+FAR = 20.0  # m: the room's panorama is 7.5 m from the table
+# fast: SAPIEN's rasteriser (its single-pass shader: textures, shadow maps, environment light); high: its ray tracer
+# (path traced, denoised where the GPU offers OptiX). The room, lights and materials are the same for both.
+SHADER_PACKS = {"fast": "minimal", "high": "rt"}
+RENDER_QUALITIES = tuple(SHADER_PACKS)
+
+
+def check_render_quality(quality: str) -> str:
+    """`quality` if it names a render quality (fast or high), else a clear error."""
+    if quality not in SHADER_PACKS:
+        raise UnknownNameError("render quality", quality, RENDER_QUALITIES)
+    return quality
+
+
+# ---------------------------------------------------------------------------------------------------- sensor effects
+@dataclass(frozen=True)
+class SensorEffects:
+    """What a real camera adds to an image, applied to the policy cameras' RGB (the `video` camera stays clean).
+
+    exposure: brightness gain; white_balance: per-channel (R, G, B) gains; blur: Gaussian blur sigma in pixels at
+    the camera's resolution; noise: standard deviation of Gaussian noise in 8-bit levels. The defaults change
+    nothing. Noise is drawn from a generator seeded by the episode's seed and step, so episodes replay exactly.
+    """
+
+    exposure: float = 1.0
+    white_balance: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    blur: float = 0.0
+    noise: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.exposure <= 8.0):
+            raise ValueError(f"sensor effects: exposure must be in (0, 8], got {self.exposure}")
+        if len(self.white_balance) != 3 or not all(0.0 < g <= 4.0 for g in self.white_balance):
+            raise ValueError(f"sensor effects: white_balance must be three gains in (0, 4], got {self.white_balance}")
+        if not (0.0 <= self.blur <= 10.0):
+            raise ValueError(f"sensor effects: blur must be a sigma in [0, 10] px, got {self.blur}")
+        if not (0.0 <= self.noise <= 64.0):
+            raise ValueError(f"sensor effects: noise must be in [0, 64] 8-bit levels, got {self.noise}")
+
+    @classmethod
+    def create(cls, value: SensorEffects | dict | None) -> SensorEffects:
+        """From an instance, a dict of its fields, or None (no effects)."""
+        if value is None:
+            return cls()
+        if isinstance(value, cls):
+            return value
+        unknown = set(value) - {"exposure", "white_balance", "blur", "noise"}
+        if unknown:
+            raise ValueError(f"sensor effects: unknown field(s) {sorted(unknown)}; use exposure, white_balance, blur, noise")
+        return cls(**{k: tuple(v) if k == "white_balance" else float(v) for k, v in value.items()})
+
+    @property
+    def active(self) -> bool:
+        return self != SensorEffects()
+
+    def apply(self, rgb: torch.Tensor, seed: int, step: int) -> torch.Tensor:
+        """The image batch (E, H, W, 3) uint8 with the effects applied."""
+        if not self.active:
+            return rgb
+        image = rgb.float()
+        gains = torch.tensor(self.white_balance, dtype=image.dtype, device=image.device) * self.exposure
+        image = image * gains
+        if self.blur > 0:
+            image = _gaussian_blur(image, self.blur)
+        if self.noise > 0:
+            generator = torch.Generator(device="cpu").manual_seed((seed * 1_000_003 + step) % (2**63))
+            image = image + torch.randn(image.shape, generator=generator).to(image.device) * self.noise
+        return image.round().clamp(0, 255).to(torch.uint8)
+
+
+def _gaussian_blur(image: torch.Tensor, sigma: float) -> torch.Tensor:
+    """Separable Gaussian blur of (E, H, W, C) float images."""
+    radius = max(1, int(math.ceil(3 * sigma)))
+    x = torch.arange(-radius, radius + 1, dtype=image.dtype, device=image.device)
+    kernel = torch.exp(-(x**2) / (2 * sigma**2))
+    kernel = kernel / kernel.sum()
+    channels = image.shape[-1]
+    data = image.permute(0, 3, 1, 2)  # E, C, H, W
+    data = torch.nn.functional.pad(data, (radius, radius, radius, radius), mode="replicate")
+    horizontal = kernel.view(1, 1, 1, -1).repeat(channels, 1, 1, 1)
+    vertical = kernel.view(1, 1, -1, 1).repeat(channels, 1, 1, 1)
+    data = torch.nn.functional.conv2d(data, horizontal, groups=channels)
+    data = torch.nn.functional.conv2d(data, vertical, groups=channels)
+    return data.permute(0, 2, 3, 1)

@@ -64,6 +64,9 @@ class RoboLabEnv(BaseEnv):
         cameras: the policy cameras, any of external_left, external_right, wrist (default external_left + wrist).
         camera_width, camera_height: their resolution (default 320x180, at most 1280x720).
         video_width, video_height: resolution of the `video` camera that `render()` uses (not an observation).
+        render_quality: `fast` (rasterised, shadow maps; the default) or `high` (SAPIEN's ray tracer, for GPUs).
+        sensor_effects: exposure, white balance, blur and noise of the policy cameras
+            (`robolab_ms.envs.cameras.SensorEffects` or a dict of its fields; default: none).
         Other keyword arguments go to ManiSkill's BaseEnv (obs_mode, render_mode, sim_backend, ...).
     """
 
@@ -83,6 +86,8 @@ class RoboLabEnv(BaseEnv):
         camera_height: int = 180,
         video_width: int = 640,
         video_height: int = 360,
+        render_quality: str = "fast",
+        sensor_effects: cameras_module.SensorEffects | dict | None = None,
         **kwargs: Any,
     ) -> None:
         self.task_spec = load_task(task)
@@ -94,6 +99,8 @@ class RoboLabEnv(BaseEnv):
         self.camera_names = cameras_module.check_cameras(cameras, camera_width, camera_height)
         self.camera_width, self.camera_height = camera_width, camera_height
         self.video_size = (video_width, video_height)
+        self.render_quality = cameras_module.check_render_quality(render_quality)
+        self.sensor_effects = cameras_module.SensorEffects.create(sensor_effects)
         self.catalog = load_catalog()
         self._exact_episodes = kwargs.get("num_envs", 1) == 1 and kwargs.get("sim_backend", "auto") in CPU_BACKENDS
         if self._exact_episodes:
@@ -125,12 +132,25 @@ class RoboLabEnv(BaseEnv):
     def _default_sensor_configs(self) -> list[CameraConfig]:
         mount = self.agent.robot.links_map[self.robot.wrist_mount_link]
         return cameras_module.policy_camera_configs(
-            self.camera_names, self.camera_width, self.camera_height, mount, cameras_module.wrist_pose(self.robot)
+            self.camera_names, self.camera_width, self.camera_height, mount, cameras_module.wrist_pose(self.robot),
+            self.render_quality,
         )
 
     @property
     def _default_human_render_camera_configs(self) -> CameraConfig:
-        return cameras_module.video_camera_config(*self.video_size)
+        return cameras_module.video_camera_config(*self.video_size, self.render_quality)
+
+    def _load_lighting(self, options: dict) -> None:
+        self.scene_builder.build_lighting()  # the room's key light with shadows, instead of ManiSkill's default
+
+    def _get_obs_sensor_data(self, apply_texture_transforms: bool = True) -> dict:
+        data = super()._get_obs_sensor_data(apply_texture_transforms)
+        if self.sensor_effects.active:
+            seed, step = int(self._episode_seed[0]), int(self._elapsed_steps[0])
+            for name in self.camera_names:
+                if "rgb" in data.get(name, {}):
+                    data[name]["rgb"] = self.sensor_effects.apply(data[name]["rgb"], seed, step)
+        return data
 
     def _set_droid_action_space(self) -> None:
         """Replace the gripper's controller range with DROID's [0, 1]."""

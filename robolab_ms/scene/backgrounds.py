@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import argparse
 import base64
+import os
 import sys
 import sysconfig
 import tarfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
+
+import numpy as np
 
 from robolab_ms.catalog.meshes import package_file
 from robolab_ms.content import Fields, content_dir, load_yaml
@@ -31,13 +34,17 @@ def hdri_dir() -> Path:
 
 @dataclass(frozen=True)
 class Background:
-    """An HDR environment map: lights the scene and shows behind it."""
+    """An HDR environment map: lights the scene and shows behind it as the room's panorama. `floor` names the
+    room's floor material; `exposure` scales the panorama's brightness when it is shown."""
 
     name: str
     file: str
     description: str
     source: str
     license: str
+    indoor: bool = True
+    floor: str = "wood_planks"
+    exposure: float = 1.0
 
     def path(self) -> Path:
         path = hdri_dir() / self.file
@@ -63,11 +70,35 @@ class TableMaterial:
 
 
 @dataclass(frozen=True)
+class FloorMaterial:
+    """A floor texture from an installed package, repeated every `tile` metres."""
+
+    name: str
+    package: str
+    texture: str
+    description: str
+    license: str
+    roughness: float
+    tile: float
+
+    def path(self) -> Path:
+        return package_file(self.package, self.texture)
+
+
+@dataclass(frozen=True)
 class Looks:
-    """Every background and table material by name."""
+    """Every background, table material and floor by name, and the defaults for scenes that name none."""
 
     backgrounds: dict[str, Background]
     table_materials: dict[str, TableMaterial]
+    floors: dict[str, FloorMaterial] = field(default_factory=dict)
+    default_background: str = "apartment"
+    default_table_material: str = "light_wood"
+
+    def floor(self, name: str) -> FloorMaterial:
+        if name not in self.floors:
+            raise UnknownNameError("floor", name, self.floors)
+        return self.floors[name]
 
     def background(self, name: str) -> Background:
         if name not in self.backgrounds:
@@ -83,14 +114,15 @@ class Looks:
 def read_looks(file: Path) -> Looks:
     """Read and check a backgrounds file."""
     data = Fields(load_yaml(file), file)
-    data.only(["version", "backgrounds", "table_materials"])
+    data.only(["version", "default_background", "default_table_material", "backgrounds", "table_materials", "floors"])
     backgrounds, materials = {}, {}
     entries = data.sub("backgrounds")
     for name in entries.data:
         item = entries.sub(name)
-        item.only(["file", "description", "source", "license"])
+        item.only(["file", "description", "source", "license", "indoor", "floor", "exposure"])
         backgrounds[name] = Background(name, item.get("file", str), item.get("description", str),
-                                       item.get("source", str), item.get("license", str))  # fmt: skip
+                                       item.get("source", str), item.get("license", str), item.get("indoor", bool, True),
+                                       item.get("floor", str, "wood_planks"), item.get("exposure", float, 1.0))  # fmt: skip
     entries = data.sub("table_materials")
     for name in entries.data:
         item = entries.sub(name)
@@ -98,13 +130,103 @@ def read_looks(file: Path) -> Looks:
         materials[name] = TableMaterial(name, item.get("package", str), item.get("texture", str),
                                         item.get("description", str), item.get("license", str),
                                         item.get("roughness", float, 0.7))  # fmt: skip
-    return Looks(backgrounds, materials)
+    floors = {}
+    entries = data.sub("floors", {})
+    for name in entries.data:
+        item = entries.sub(name)
+        item.only(["package", "texture", "description", "license", "roughness", "tile"])
+        floors[name] = FloorMaterial(name, item.get("package", str), item.get("texture", str),
+                                     item.get("description", str), item.get("license", str),
+                                     item.get("roughness", float, 0.7), item.get("tile", float, 1.0))  # fmt: skip
+    for name, background in backgrounds.items():
+        if background.floor not in floors:
+            raise data.sub("backgrounds").error(f"{name}.floor", f"background '{name}' names floor '{background.floor}', which is not listed",
+                                f"Use one of {', '.join(floors) or '(none: add a floors section)'}")  # fmt: skip
+    looks = Looks(backgrounds, materials, floors, data.get("default_background", str, "apartment"),
+                  data.get("default_table_material", str, "light_wood"))  # fmt: skip
+    if looks.default_background not in backgrounds:
+        data.name_in("default_background", backgrounds, "background")
+    if looks.default_table_material not in materials:
+        data.name_in("default_table_material", materials, "table material")
+    return looks
 
 
 @lru_cache(maxsize=None)
 def load_looks() -> Looks:
     """The shipped backgrounds and table materials (assets/backgrounds.yaml)."""
     return read_looks(content_dir("assets") / "backgrounds.yaml")
+
+
+LIGHTING_MAP_WIDTH = 128  # px: the lighting map is downsampled to this width
+ENVIRONMENT_BRIGHTNESS = 0.6  # mean luminance the lighting environment map is scaled to (before `light` factors)
+
+
+def _read_hdr(background: Background) -> np.ndarray:
+    import sapien
+
+    hdr = sapien.render.RenderTexture2D(str(background.path()), srgb=False).download()[..., :3].astype(np.float32)
+    return np.nan_to_num(np.clip(hdr, 0.0, 1e4), nan=0.0)
+
+
+def write_radiance_hdr(path: Path, image: np.ndarray) -> None:
+    """Write a float RGB image (H, W, 3) as a Radiance RGBE (.hdr) file, flat (not run-length encoded)."""
+    peak = np.max(image, axis=2)
+    mantissa, exponent = np.frexp(peak)
+    scale = np.where(peak > 1e-32, mantissa * 256.0 / np.maximum(peak, 1e-32), 0.0)
+    rgbe = np.zeros((*image.shape[:2], 4), np.uint8)
+    rgbe[..., :3] = np.clip(image * scale[..., None], 0, 255).astype(np.uint8)
+    rgbe[..., 3] = np.where(peak > 1e-32, exponent + 128, 0).astype(np.uint8)
+    header = f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {image.shape[0]} +X {image.shape[1]}\n".encode("ascii")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_suffix(f".{os.getpid()}.tmp")
+    temporary.write_bytes(header + rgbe.tobytes())
+    temporary.replace(path)
+
+
+def lighting_map(name: str, light: float = 1.0) -> Path:
+    """The background's HDR map scaled so its mean luminance is ENVIRONMENT_BRIGHTNESS x `light`: the same room
+    lights every scene about equally (the key light adds shadows). Written once into the cache folder."""
+    from robolab_ms.agents.droid_model import cache_dir
+
+    background = load_looks().background(name)
+    target = cache_dir() / "hdri" / f"{Path(background.file).stem}_{LIGHTING_MAP_WIDTH}_{ENVIRONMENT_BRIGHTNESS * light:.4f}.hdr"
+    if not target.is_file():
+        hdr = _read_hdr(background)
+        factor = max(1, hdr.shape[1] // LIGHTING_MAP_WIDTH)  # a small map: SAPIEN filters it on every scene build
+        height, width = hdr.shape[0] // factor, hdr.shape[1] // factor
+        hdr = hdr[: height * factor, : width * factor].reshape(height, factor, width, factor, 3).mean(axis=(1, 3))
+        luminance = hdr @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+        write_radiance_hdr(target, hdr * (ENVIRONMENT_BRIGHTNESS * light / max(float(luminance.mean()), 1e-4)))
+    return target
+
+
+@lru_cache(maxsize=None)
+def lighting_cubemap(name: str, light: float = 1.0):
+    """The lighting map as a SAPIEN cubemap, loaded (and filtered by SAPIEN) once per process."""
+    import sapien
+
+    return sapien.render.RenderCubemap(str(lighting_map(name, light)))
+
+
+@lru_cache(maxsize=None)
+def panorama_image(name: str) -> np.ndarray:
+    """The background's HDR map tone-mapped for display: (H, W, 3) uint8 sRGB, brightness set by its `exposure`."""
+    background = load_looks().background(name)
+    hdr = _read_hdr(background)
+    luminance = hdr @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+    scaled = hdr * (0.18 * background.exposure / max(float(np.exp(np.mean(np.log(luminance + 1e-4)))), 1e-4))
+    mapped = scaled * (1 + scaled / 4.0) / (1 + scaled)  # Reinhard with a white point of 2
+    return (np.clip(mapped, 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)
+
+
+@lru_cache(maxsize=None)
+def panorama_texture(name: str):
+    """The background's display panorama as a SAPIEN texture (made once per process)."""
+    import sapien
+
+    image = panorama_image(name)
+    rgba = np.concatenate([image, np.full((*image.shape[:2], 1), 255, np.uint8)], axis=2)
+    return sapien.render.RenderTexture2D(rgba, "R8G8B8A8Unorm", mipmap_levels=1, srgb=True)
 
 
 def unpack_hdris(tarball: Path, destination: Path | None = None) -> list[Path]:

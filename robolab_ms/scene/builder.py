@@ -2,55 +2,64 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 import sapien
 import torch
 from mani_skill.envs.sapien_env import BaseEnv
-from mani_skill.utils.building.ground import build_ground
 from mani_skill.utils.scene_builder import SceneBuilder
 from mani_skill.utils.structs import Actor
 from mani_skill.utils.structs.pose import Pose
 
-from robolab_ms.catalog import Catalog, CatalogObject
+from robolab_ms import autoregister_hook as _autoregister
+from robolab_ms.catalog import COLOR_NAMES, Catalog, CatalogObject
+from robolab_ms.catalog.appearance import (
+    Look,
+    cylinder_mesh,
+    panorama_sphere,
+    plane_mesh,
+    render_material,
+    texture_from_file,
+    visual_mesh_builder,
+)
 from robolab_ms.catalog.procedural import Part
-from robolab_ms.scene.backgrounds import load_looks
+from robolab_ms.scene.backgrounds import lighting_cubemap, load_looks, panorama_texture
 from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, quat_multiply, resting_height, yaw_quat
+
+TABLE_TOP_THICKNESS = 0.035
+ROOM_RADIUS = 7.0  # m: half the floor's size; the panorama sphere is just outside it
+PANORAMA_EYE_HEIGHT = 1.5  # m above the floor: where the panorama's camera stood
+AMBIENT_LIGHT = (0.0, 0.0, 0.0)
+KEY_LIGHT_DIRECTION = (0.25, -0.2, -1.0)  # from above, behind the robot's left shoulder
+KEY_LIGHT_COLOR = (0.8, 0.77, 0.72)  # a warm white
+SHADOW_HALF_SIZE = 1.0  # m: the key light's shadow covers the table and the robot
+SHADOW_MAP_SIZE = 1024
+
+
+def _is_default_brown(rgba) -> bool:
+    return tuple(round(c, 3) for c in rgba[:3]) == tuple(round(c, 3) for c in COLOR_NAMES["brown"])
 
 
 class RoboLabSceneBuilder(SceneBuilder):
-    """Builds a table, a robot pedestal and the scene's catalog objects; places objects each episode."""
+    """Builds the room (floor, panorama backdrop, lights), the table, the robot's stand and the scene's catalog
+    objects; places objects each episode."""
 
     def __init__(self, env: BaseEnv, spec: SceneSpec, catalog: Catalog) -> None:
         super().__init__(env, robot_init_qpos_noise=0.0)
         self.spec = spec
         self.catalog = catalog
         self.objects: dict[str, Actor] = {}
+        looks = load_looks()
+        self.background = looks.background(spec.background or looks.default_background)
 
     def build(self, build_config_idxs: list[int] | None = None) -> None:
-        length, width = self.spec.table_size
-        table = self.scene.create_actor_builder()
-        half = [length / 2, width / 2, TABLE_HEIGHT / 2]
-        table.add_box_collision(half_size=half)
-        table.add_box_visual(half_size=half, material=self._table_render_material())
-        table.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], -TABLE_HEIGHT / 2])
-        self.table = table.build_kinematic(name="table")
+        self.table = self._build_table()
         self.table_entry = table_entry(self.spec)
-
-        pedestal = self.scene.create_actor_builder()
-        pedestal_half = [0.15, 0.15, TABLE_HEIGHT / 2]
-        pedestal.add_box_collision(half_size=pedestal_half)
-        pedestal.add_box_visual(half_size=pedestal_half, material=sapien.render.RenderMaterial(
-            base_color=[0.2, 0.2, 0.22, 1.0]))
-        pedestal.initial_pose = sapien.Pose(p=[-0.08, 0, -TABLE_HEIGHT / 2 - 0.001])
-        self.pedestal = pedestal.build_kinematic(name="robot_pedestal")
-        self.ground = build_ground(self.scene, altitude=-TABLE_HEIGHT)
-
-        if self.spec.background is not None:
-            environment_map = str(load_looks().background(self.spec.background).path())
-            for sub_scene in self.scene.sub_scenes:
-                sub_scene.set_environment_map(environment_map)
+        self.pedestal = self._build_stand()
+        self.ground = self._build_floor()
+        self.backdrop = self._build_backdrop()
+        environment_map = lighting_cubemap(self.background.name)
+        for sub_scene in self.scene.sub_scenes:
+            sub_scene.set_environment_map(environment_map)
 
         for placement in self.spec.objects:
             entry = self.catalog[placement.asset]
@@ -60,14 +69,90 @@ class RoboLabSceneBuilder(SceneBuilder):
         self.scene_objects = {"table": self.table, "robot_pedestal": self.pedestal, **self.objects}
         self.movable_objects = dict(self.objects)
 
+    # ------------------------------------------------------------------------------------------------ the room
+    def _build_table(self) -> Actor:
+        """A table top on four legs; its collision is one box from the floor to the top (z = 0)."""
+        length, width = self.spec.table_size
+        table = visual_mesh_builder(self.scene)
+        half = [length / 2, width / 2, TABLE_HEIGHT / 2]
+        table.add_box_collision(half_size=half)
+        top = self._table_render_material()
+        table.add_box_visual(pose=sapien.Pose(p=[0, 0, half[2] - TABLE_TOP_THICKNESS / 2]),
+                             half_size=[half[0], half[1], TABLE_TOP_THICKNESS / 2], material=top)  # fmt: skip
+        legs = render_material(Look("metal", (0.55, 0.55, 0.57), 0.35, 0.9))
+        leg_half = (TABLE_HEIGHT - TABLE_TOP_THICKNESS) / 2
+        for sx in (-1, 1):
+            for sy in (-1, 1):
+                position = [sx * (half[0] - 0.06), sy * (half[1] - 0.06), -half[2] + leg_half]
+                table.add_visual_mesh(cylinder_mesh(0.022, leg_half), legs,
+                                      sapien.Pose(p=position, q=[0.7071068, 0, 0.7071068, 0]))  # fmt: skip
+        apron = render_material(Look("wood", (0.35, 0.25, 0.16), 0.6))
+        for sign in (-1, 1):
+            table.add_box_visual(pose=sapien.Pose(p=[0, sign * (half[1] - 0.07), half[2] - TABLE_TOP_THICKNESS - 0.04]),
+                                 half_size=[half[0] - 0.08, 0.01, 0.04], material=apron)  # fmt: skip
+        table.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], -TABLE_HEIGHT / 2])
+        return table.build_kinematic(name="table")
+
+    def _build_stand(self) -> Actor:
+        """The robot's stand: a powder-coated steel column from the floor to the robot base, on a wider foot."""
+        stand = self.scene.create_actor_builder()
+        stand_half = [0.15, 0.15, TABLE_HEIGHT / 2]
+        stand.add_box_collision(half_size=stand_half)
+        coat = render_material(Look("plastic", (0.16, 0.16, 0.17), 0.5, 0.3))
+        stand.add_box_visual(half_size=stand_half, material=coat)
+        plate = render_material(Look("dark_metal", (0.7, 0.7, 0.72), 0.4, 0.9))
+        stand.add_box_visual(pose=sapien.Pose(p=[0, 0, TABLE_HEIGHT / 2 - 0.005]), half_size=[0.16, 0.16, 0.006],
+                             material=plate)  # fmt: skip
+        stand.add_box_visual(pose=sapien.Pose(p=[0, 0, -TABLE_HEIGHT / 2 + 0.01]), half_size=[0.25, 0.25, 0.01],
+                             material=plate)  # fmt: skip
+        stand.initial_pose = sapien.Pose(p=[-0.08, 0, -TABLE_HEIGHT / 2 - 0.001])
+        return stand.build_kinematic(name="robot_pedestal")
+
+    def _build_floor(self) -> Actor:
+        """The room's floor: a collision plane at z = -TABLE_HEIGHT with the background's floor texture."""
+        floor_look = load_looks().floor(self.background.floor)
+        material = sapien.render.RenderMaterial(base_color=[1.0, 1.0, 1.0, 1.0], roughness=floor_look.roughness)
+        material.base_color_texture = texture_from_file(str(floor_look.path()))
+        floor = visual_mesh_builder(self.scene)
+        floor.add_plane_collision(sapien.Pose(q=[0.7071068, 0, -0.7071068, 0]))
+        size = 2 * ROOM_RADIUS
+        floor.add_visual_mesh(plane_mesh(size, size, floor_look.tile), material)
+        floor.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], 0, -TABLE_HEIGHT])
+        return floor.build_static(name="floor")
+
+    def _build_backdrop(self) -> Actor:
+        """The background's panorama on a large sphere around the room, shown as it is (emissive, unlit)."""
+        material = sapien.render.RenderMaterial(base_color=[0.0, 0.0, 0.0, 1.0], roughness=1.0, specular=0.0)
+        material.emission_texture = panorama_texture(self.background.name)
+        material.emission = [1.0, 1.0, 1.0, 1.0]
+        backdrop = visual_mesh_builder(self.scene)
+        backdrop.add_visual_mesh(panorama_sphere(ROOM_RADIUS + 0.5), material)
+        backdrop.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], 0, -TABLE_HEIGHT + PANORAMA_EYE_HEIGHT])
+        return backdrop.build_static(name="room_backdrop")
+
+    def build_lighting(self, shadows: bool = True, shadow_map_size: int = SHADOW_MAP_SIZE) -> None:
+        """The room's light: a shadow-casting key light from above the table, the environment map and a little
+        ambient light. Called by the environment in place of ManiSkill's default lighting."""
+        self.scene.set_ambient_light(list(AMBIENT_LIGHT))
+        self.scene.add_directional_light(
+            list(KEY_LIGHT_DIRECTION), list(KEY_LIGHT_COLOR), shadow=shadows,
+            position=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], 0.0], shadow_scale=SHADOW_HALF_SIZE,
+            shadow_near=-2.0, shadow_far=2.0, shadow_map_size=shadow_map_size,
+        )  # fmt: skip
+
     def _table_render_material(self) -> sapien.render.RenderMaterial:
-        """The table's look: the scene's table material (a texture) or its plain colour."""
-        if self.spec.table_material is None:
-            return sapien.render.RenderMaterial(base_color=list(self.spec.table_rgba), roughness=0.8)
-        material = load_looks().table_material(self.spec.table_material)
-        render_material = sapien.render.RenderMaterial(base_color=[1.0, 1.0, 1.0, 1.0], roughness=material.roughness)
-        render_material.base_color_texture = texture_from_file(str(material.path()))
-        return render_material
+        """The table top's look: the scene's table material, the default wood for a brown table, or a laminate in
+        the scene's table colour."""
+        looks = load_looks()
+        name = self.spec.table_material
+        if name is None and _is_default_brown(self.spec.table_rgba):
+            name = looks.default_table_material
+        if name is None:
+            return render_material(Look("painted_wood", tuple(self.spec.table_rgba[:3]), 0.5))
+        material = looks.table_material(name)
+        render = sapien.render.RenderMaterial(base_color=[1.0, 1.0, 1.0, 1.0], roughness=material.roughness)
+        render.base_color_texture = texture_from_file(str(material.path()))
+        return render
 
     def initialize(self, env_idx: torch.Tensor, init_config_idxs: list[int] | None = None) -> None:
         count = len(env_idx)
@@ -88,12 +173,6 @@ class RoboLabSceneBuilder(SceneBuilder):
 
 
 
-@lru_cache(maxsize=None)
-def texture_from_file(path: str) -> sapien.render.RenderTexture2D:
-    """A texture image, loaded once per process."""
-    return sapien.render.RenderTexture2D(path, srgb=True)
-
-
 def table_entry(spec: SceneSpec) -> CatalogObject:
     """The table as a catalog-style entry (its frame is the box centre), so predicates can treat it like an object."""
     length, width = spec.table_size
@@ -102,3 +181,6 @@ def table_entry(spec: SceneSpec) -> CatalogObject:
         mass=1.0, static_friction=1.0, dynamic_friction=1.0, restitution=0.0, source={"kind": "scene"},
         license="n/a", parts=(Part("box", (length / 2, width / 2, TABLE_HEIGHT / 2), (0.0, 0.0, 0.0)),),
     )  # fmt: skip
+
+
+_autoregister.register_if_deferred()  # ManiSkill may have come up half-way through this import
