@@ -186,6 +186,7 @@ class Gr00tPolicy(ChunkedPolicy):
         import zmq
 
         self.close()
+        self.needs_reconnect = True  # until the server answers
         probe_server(self.host, self.port, "GR00T",
                      f"`robolab serve --protocol gr00t --policy random --port {self.port}` to check the set-up here, "
                      f"or GR00T's `python scripts/inference_service.py --server --port {self.port}` (DROID "

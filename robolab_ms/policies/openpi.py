@@ -68,6 +68,7 @@ class OpenPIPolicy(ChunkedPolicy):
 
     def connect(self) -> None:
         self.close()
+        self.needs_reconnect = True  # until a connection is made
         probe_server(self.host, self.port, "openpi",
                      f"`robolab serve --policy random --port {self.port}` to check the set-up here, or openpi's "
                      f"`uv run scripts/serve_policy.py --env DROID` on a GPU machine")  # fmt: skip
