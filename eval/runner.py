@@ -326,6 +326,9 @@ def rerun_command(policy: Policy, config: EvalConfig, out_dir: Path) -> str:
         words.append("--record")
     if config.record.video:
         words.append("--video")
+    if config.save_actions:
+        words.append("--save-actions")
+    words += policy.command_line_options()
     return shlex.join(words)
 
 

@@ -126,6 +126,10 @@ class Policy:
         sends back. The default asks `act` `horizon` times; policies that know a whole chunk override it."""
         return np.stack([np.asarray(self.act(observation), dtype=np.float32) for _ in range(horizon)])
 
+    def command_line_options(self) -> list[str]:
+        """The `robolab eval` options that recreate this policy (besides --policy NAME)."""
+        return []
+
     def pop_query_times(self) -> list[float] | None:
         """Milliseconds of each query since the last call, for policies that answer in chunks (one query feeds
         several steps); None when every `act` call is one query (the runner then times `act` itself)."""

@@ -210,6 +210,9 @@ class Gr00tPolicy(ChunkedPolicy):
     def metadata(self) -> dict[str, Any]:
         return self._metadata
 
+    def command_line_options(self) -> list[str]:
+        return [*super().command_line_options(), "--gr00t-version", self.version]
+
     def _call(self, request: dict[str, Any], timeout: float) -> Any:
         import zmq
         from zmq.utils.monitor import recv_monitor_message

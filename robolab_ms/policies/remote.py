@@ -89,6 +89,13 @@ class ChunkedPolicy(Policy):
         """One round trip to the policy: a checked float32 chunk (H, 8)."""
         raise NotImplementedError
 
+    def command_line_options(self) -> list[str]:
+        options = ["--open-loop-horizon", str(self.open_loop_horizon)]
+        for name in ("host", "port", "timeout"):
+            if hasattr(self, name):
+                options += [f"--{name}", f"{getattr(self, name):g}" if name == "timeout" else str(getattr(self, name))]
+        return options
+
     def pop_query_times(self) -> list[float]:
         times, self._query_ms = self._query_ms, []
         return times

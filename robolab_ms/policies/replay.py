@@ -66,6 +66,9 @@ class ReplayPolicy(Policy):
         self.actions = np.zeros((0, 8), np.float32)
         self.step = 0
 
+    def command_line_options(self) -> list[str]:
+        return ["--replay-from", str(self.folder), "--replay-policy", self.source]
+
     def metadata(self) -> dict[str, Any]:
         return {"replay_from": str(self.folder), "replayed_policy": self.source}
 
