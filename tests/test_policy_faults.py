@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import json
 import threading
+import time
+
+import pytest
 
 from servers import fault_server, free_port, robolab_serve
 
@@ -82,3 +85,14 @@ def test_server_killed_and_restarted_mid_run(tmp_path):
     assert [line["seed"] for line in lines] == [0, 1, 2]
     assert lines[0]["error"] is None and lines[2]["error"] is None and lines[2]["steps"] == 24
     assert "PolicyConnectionLost" in lines[1]["error"] and f"127.0.0.1:{port}" in lines[1]["error"]
+
+
+def test_a_server_that_stays_away_stops_the_run_after_bounded_backoff(tmp_path):
+    from robolab_ms.eval.runner import _reconnect
+    from robolab_ms.policies import PolicyUnavailableError
+
+    policy = make_policy("openpi", PolicyOptions(port=free_port()))  # nothing listens there any more
+    start = time.monotonic()
+    with pytest.raises(PolicyUnavailableError, match=r"could not reconnect in 2 s \([3-9] tries.*--retry-errors"):
+        _reconnect(policy, 2.0, tmp_path)
+    assert time.monotonic() - start < 10
