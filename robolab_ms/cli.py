@@ -472,6 +472,17 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("--out", default="results/validate", help="results folder (default: results/validate)")
     validate.add_argument("--quiet", action="store_true", help="no progress bars")
     validate.set_defaults(run=_cmd_validate)
+
+    from robolab_ms import fidelity
+
+    render_check = commands.add_parser(
+        "render-check", help="name the rendering device and measure how DROID-like every scene looks",
+        description="Renders every scene with DROID's cameras and prints the share of objects with an image "
+        "texture (target >= 90 %), the share of external-camera pixels showing the grid ground or empty "
+        "background (target 0 %) and whether shadows are on; exits 1 when a target is missed.",
+    )  # fmt: skip
+    fidelity.add_arguments(render_check)
+    render_check.set_defaults(run=fidelity.run)
     return parser
 
 
