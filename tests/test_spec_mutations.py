@@ -410,12 +410,15 @@ def test_every_broken_field_of_a_catalog_entry_is_reported(tmp_path, name):
     assert not problems, f"{len(problems)} wrong outcomes:\n" + "\n".join(problems)
 
 
+BROKEN_SCENE = """name: broken_scene
+objects: [{asset: banana, xy: [0.5, 0.1]}, {asset: bowl_white, xy: [0.55, -0.15]}]
+"""
 BROKEN_TASK = """name: Broken
-scene: banana_bowl
+scene: broken_scene.yaml
 episode_seconds: 0.05
 instructions: {default: a, vague: b, specific: c}
 success:
-  - {predicate: in_container, objects: [banana], container: bowl}
+  - {predicate: in_container, objects: [banana], container: bowl_white}
 """
 
 
@@ -426,6 +429,7 @@ def test_a_broken_task_file_is_refused_however_it_arrives(tmp_path, capsys):
     import robolab_ms.envs  # noqa: F401  (registers the RoboLab ids)
     from robolab_ms.cli import main
 
+    (tmp_path / "broken_scene.yaml").write_text(BROKEN_SCENE)
     path = tmp_path / "Broken.yaml"
     path.write_text(BROKEN_TASK)
     with pytest.raises(SpecError) as error:

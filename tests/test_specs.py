@@ -50,7 +50,7 @@ def test_scene_with_unknown_object_names_file_field_and_suggestion(tmp_path):
     with pytest.raises(SpecError) as error:
         read_scene(path)
     message = str(error.value)
-    assert str(path) in message and "objects[0].asset" in message and "Did you mean 'banana'?" in message
+    assert str(path) in message and "objects[0].asset" in message and "Did you mean 'banana'" in message
 
 
 def test_scene_with_misspelt_field(tmp_path):
@@ -183,7 +183,7 @@ def test_the_task_writing_page_documents_every_predicate_and_event():
 
 
 BASE_TASK = """name: T
-scene: banana_bowl
+scene: staged.yaml
 episode_seconds: 50
 instructions: {default: a, vague: b, specific: c}
 success:
@@ -216,6 +216,7 @@ success:
 )
 def test_bad_task_values_name_file_field_and_fix(tmp_path, old, new, field, hint):
     assert old in BASE_TASK
+    write(tmp_path, "staged", STAGED_SCENE)
     path = write(tmp_path, "T", BASE_TASK.replace(old, new, 1))
     with pytest.raises(SpecError) as error:
         read_task(path)
@@ -223,6 +224,7 @@ def test_bad_task_values_name_file_field_and_fix(tmp_path, old, new, field, hint
 
 
 def test_a_file_that_is_not_utf8_names_the_line(tmp_path):
+    write(tmp_path, "staged", STAGED_SCENE)
     path = tmp_path / "T.yaml"
     path.write_bytes(BASE_TASK.replace("vague: b", "vague: caf\xe9").encode("latin-1"))
     with pytest.raises(SpecError, match=r"field 'line 4': is not UTF-8 text \(byte 0xe9.*Save the file"):
@@ -230,6 +232,7 @@ def test_a_file_that_is_not_utf8_names_the_line(tmp_path):
 
 
 def test_a_key_given_twice_names_the_field_and_both_lines(tmp_path):
+    write(tmp_path, "staged", STAGED_SCENE)
     path = write(tmp_path, "T", BASE_TASK + "episode_seconds: 60\n")
     with pytest.raises(SpecError, match=r"field 'episode_seconds': is given twice \(lines 3 and 7\)"):
         read_task(path)
