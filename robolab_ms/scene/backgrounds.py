@@ -115,6 +115,8 @@ def read_looks(file: Path) -> Looks:
     """Read and check a backgrounds file."""
     data = Fields(load_yaml(file), file)
     data.only(["version", "default_background", "default_table_material", "backgrounds", "table_materials", "floors"])
+    if data.get("version", int, 1) != 1:
+        raise data.error("version", f"{data.data['version']} is not a version this robolab_ms reads", "Write version: 1")
     backgrounds, materials = {}, {}
     entries = data.sub("backgrounds")
     for name in entries.data:
@@ -122,14 +124,14 @@ def read_looks(file: Path) -> Looks:
         item.only(["file", "description", "source", "license", "indoor", "floor", "exposure"])
         backgrounds[name] = Background(name, item.get("file", str), item.get("description", str),
                                        item.get("source", str), item.get("license", str), item.get("indoor", bool, True),
-                                       item.get("floor", str, "wood_planks"), item.get("exposure", float, 1.0))  # fmt: skip
+                                       item.get("floor", str, "wood_planks"), item.positive("exposure", 100.0, 1.0))  # fmt: skip
     entries = data.sub("table_materials")
     for name in entries.data:
         item = entries.sub(name)
         item.only(["package", "texture", "description", "license", "roughness"])
         materials[name] = TableMaterial(name, item.get("package", str), item.get("texture", str),
                                         item.get("description", str), item.get("license", str),
-                                        item.get("roughness", float, 0.7))  # fmt: skip
+                                        item.number("roughness", 0.0, 1.0, 0.7))  # fmt: skip
     floors = {}
     entries = data.sub("floors", {})
     for name in entries.data:
@@ -137,7 +139,7 @@ def read_looks(file: Path) -> Looks:
         item.only(["package", "texture", "description", "license", "roughness", "tile"])
         floors[name] = FloorMaterial(name, item.get("package", str), item.get("texture", str),
                                      item.get("description", str), item.get("license", str),
-                                     item.get("roughness", float, 0.7), item.get("tile", float, 1.0))  # fmt: skip
+                                     item.number("roughness", 0.0, 1.0, 0.7), item.positive("tile", 100.0, 1.0, "m"))  # fmt: skip
     for name, background in backgrounds.items():
         if background.floor not in floors:
             raise data.sub("backgrounds").error(f"{name}.floor", f"background '{name}' names floor '{background.floor}', which is not listed",
