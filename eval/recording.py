@@ -338,6 +338,8 @@ class ReplayReport:
 
     def line(self) -> str:
         verdict = "same" if self.matches else f"DIFFERS from step {self.first_different_step}"
+        if self.first_different_step == 0:
+            verdict += " (the initial state: the task, its scene or the catalog changed since the recording)"
         return (f"{self.file.name}: {self.steps} steps, {verdict} (largest state difference "
                 f"{self.max_state_difference:.3g}); success {self.recorded_success} -> {self.replayed_success}, "
                 f"score {self.recorded_score:.2f} -> {self.replayed_score:.2f}")  # fmt: skip
