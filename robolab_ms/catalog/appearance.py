@@ -434,19 +434,19 @@ def _with_meshes(base: type) -> type:
 
 
 @lru_cache(maxsize=None)
-def _builder_classes() -> tuple[type, type]:
-    from mani_skill.utils.building.actor_builder import ActorBuilder as ManiSkillActorBuilder
-    from sapien.wrapper.actor_builder import ActorBuilder as SapienActorBuilder
-
-    return _with_meshes(ManiSkillActorBuilder), _with_meshes(SapienActorBuilder)
+def _builder_class(maniskill: bool) -> type:
+    if maniskill:
+        from mani_skill.utils.building.actor_builder import ActorBuilder
+    else:
+        from sapien.wrapper.actor_builder import ActorBuilder
+    return _with_meshes(ActorBuilder)
 
 
 def visual_mesh_builder(scene):
     """An actor builder for `scene` (a ManiSkill scene or a plain SAPIEN scene) with `add_visual_mesh`."""
     import sapien
 
-    maniskill_class, sapien_class = _builder_classes()
-    builder = (sapien_class if isinstance(scene, sapien.Scene) else maniskill_class)()
+    builder = _builder_class(not isinstance(scene, sapien.Scene))()
     builder.set_scene(scene)
     return builder
 

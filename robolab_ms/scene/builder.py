@@ -43,6 +43,8 @@ class RoboLabSceneBuilder(SceneBuilder):
     """Builds the room (floor, panorama backdrop, lights), the table, the robot's stand and the scene's catalog
     objects; places objects each episode."""
 
+    shadow_map_size = SHADOW_MAP_SIZE  # px, of the key light's shadow map
+
     def __init__(self, env: BaseEnv, spec: SceneSpec, catalog: Catalog) -> None:
         super().__init__(env, robot_init_qpos_noise=0.0)
         self.spec = spec
@@ -130,9 +132,10 @@ class RoboLabSceneBuilder(SceneBuilder):
         backdrop.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], 0, -TABLE_HEIGHT + PANORAMA_EYE_HEIGHT])
         return backdrop.build_static(name="room_backdrop")
 
-    def build_lighting(self, shadows: bool = True, shadow_map_size: int = SHADOW_MAP_SIZE) -> None:
+    def build_lighting(self, shadows: bool = True, shadow_map_size: int | None = None) -> None:
         """The room's light: a shadow-casting key light from above the table, the environment map and a little
         ambient light. Called by the environment in place of ManiSkill's default lighting."""
+        shadow_map_size = shadow_map_size or self.shadow_map_size
         self.scene.set_ambient_light(list(AMBIENT_LIGHT))
         self.scene.add_directional_light(
             list(KEY_LIGHT_DIRECTION), list(KEY_LIGHT_COLOR), shadow=shadows,
