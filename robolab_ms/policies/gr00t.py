@@ -124,7 +124,9 @@ def gr00t_request_to_droid(data: dict[str, Any]) -> tuple[dict[str, Any], dict[s
         elif key.startswith(ROBOLAB_KEY_PREFIX):
             episode[key.removeprefix(ROBOLAB_KEY_PREFIX)] = value
     instruction = data.get("annotation.language.language_instruction", [""])
-    observation["prompt"] = str(instruction[0] if isinstance(instruction, (list, tuple)) and instruction else instruction)
+    if isinstance(instruction, (list, tuple)):
+        instruction = instruction[0] if instruction else ""
+    observation["prompt"] = str(instruction)
     return observation, episode
 
 

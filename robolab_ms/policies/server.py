@@ -45,6 +45,11 @@ def _default_action_space(robot: str) -> spaces.Box:
                       dtype=np.float32)  # fmt: skip
 
 
+def episode_key(episode: dict[str, Any]) -> tuple:
+    """What tells a client's episodes apart: task, variant, robot and seed (None for a foreign client)."""
+    return tuple(episode.get(name) for name in ("task", "instruction_variant", "robot", "seed"))
+
+
 class PolicySession:
     """One client's served policy: resets it when an episode starts and answers observations with chunks."""
 
@@ -57,7 +62,7 @@ class PolicySession:
     def answer(self, observation: dict[str, Any], episode: dict[str, Any]) -> np.ndarray:
         """The chunk (action_horizon, 8) for a DROID observation dict (batched arrays) and the client's episode
         fields (task, instruction_variant, robot, seed, step, action_low, action_high; any may be missing)."""
-        key = (episode.get("task"), episode.get("instruction_variant"), episode.get("robot"), episode.get("seed"))
+        key = episode_key(episode)
         step = episode.get("step")
         if self.episode_key is None or key != self.episode_key or step == 0:
             self._start(observation, episode)
@@ -72,8 +77,8 @@ class PolicySession:
         robot = str(episode.get("robot") or "droid")
         seed = int(episode.get("seed") or 0)
         if episode.get("action_low") is not None and episode.get("action_high") is not None:
-            space = spaces.Box(np.asarray(episode["action_low"], np.float32), np.asarray(episode["action_high"], np.float32),
-                               dtype=np.float32)  # fmt: skip
+            low, high = (np.asarray(episode[key], np.float32) for key in ("action_low", "action_high"))
+            space = spaces.Box(low, high, dtype=np.float32)
         else:
             space = _default_action_space(robot)
         prompt = str(observation.get("prompt", ""))
@@ -187,13 +192,14 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
                     reply: Any = {"status": "ok", **metadata}
                 elif endpoint == "get_action":
                     observation, episode = gr00t_request_to_droid(request.get("data") or {})
-                    key = (episode.get("task"), episode.get("instruction_variant"), episode.get("robot"), episode.get("seed"))
+                    key = episode_key(episode)
                     session = sessions.pop(key, None) or PolicySession(factory(), action_horizon)
                     sessions[key] = session  # the most recent last; clients' episodes may interleave
                     while len(sessions) > MAX_GR00T_SESSIONS:
                         sessions.pop(next(iter(sessions))).policy.close()
                     chunk = session.answer(observation, episode)
-                    reply = {"action.joint_position": chunk[None, :, :-1], "action.gripper_position": chunk[None, :, -1:]}
+                    reply = {"action.joint_position": chunk[None, :, :-1],
+                             "action.gripper_position": chunk[None, :, -1:]}  # fmt: skip
                     if isinstance(request["data"].get("observation"), dict):
                         reply = [reply, {}]  # N1.6's format: (actions, info)
                     if log_requests:
