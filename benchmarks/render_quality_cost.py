@@ -1,5 +1,5 @@
 """Time per frame of the two render qualities, `fast` (SAPIEN's rasteriser, shadow maps) and `high` (its ray
-tracer, ManiSkill's `rt` settings: 32 samples per pixel, path depth 16, OptiX denoiser), on the room look.
+tracer with ManiSkill's `rt` settings: 32 samples per pixel, path depth 16; OIDN denoiser), on the room look.
 
 It builds the look in a plain SAPIEN scene: the room's floor, the panorama backdrop and environment light, the
 key light with its shadow map, a textured table top and a few textured catalog objects; no robot, so it runs where
@@ -36,7 +36,7 @@ from robolab_ms.scene import backgrounds  # noqa: E402
 OBJECTS = [("rubiks_cube", 0.45, 0.1), ("soup_can", 0.6, -0.2), ("banana", 0.5, 0.25), ("bowl_white", 0.62, 0.05),
            ("apple_red", 0.38, -0.1), ("mug_white", 0.72, 0.22), ("block_red", 0.35, 0.28)]  # fmt: skip
 EXTERNAL_LEFT = ((0.05, 0.57, 0.66), (-0.393, -0.195, 0.399, 0.805))  # DROID's pose, OpenGL camera convention
-SETTINGS = {"fast": ("minimal", None), "high": ("rt", (32, 16, "optix"))}
+SETTINGS = {"fast": ("minimal", None), "high": ("rt", (32, 16, "oidn"))}  # as robolab_ms.envs.cameras.shader_config
 
 
 def camera_pose() -> sapien.Pose:
@@ -88,6 +88,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None, help="save one frame of each quality here")
     parser.add_argument("--textures", type=Path, default=None)
     parser.add_argument("--hdri", type=Path, default=None)
+    parser.add_argument("--denoiser", default=None, choices=["optix", "oidn", "none"],
+                        help="the ray tracer's denoiser (default: the `high` setting's)")
     args = parser.parse_args()
     if args.hdri:
         backgrounds.hdri_dir = lambda: args.hdri
@@ -103,7 +105,7 @@ def main() -> None:
         if rt:
             sapien.render.set_ray_tracing_samples_per_pixel(rt[0])
             sapien.render.set_ray_tracing_path_depth(rt[1])
-            sapien.render.set_ray_tracing_denoiser(rt[2])
+            sapien.render.set_ray_tracing_denoiser(args.denoiser or rt[2])
         scene = build_scene(args.textures)
         focal = 500.0 * args.width / 1280
         camera = scene.add_camera("external_left", args.width, args.height, 2 * math.atan(args.height / 2 / focal), 0.01, 20)

@@ -11,6 +11,7 @@ Focal lengths are defined at 1280x720 and scale with the chosen resolution, so t
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import sapien
 import torch
+from mani_skill.render.shaders import PREBUILT_SHADER_CONFIGS, ShaderConfig
 from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 from transforms3d.quaternions import mat2quat, quat2mat
@@ -96,18 +98,17 @@ def policy_camera_configs(
     names: Sequence[str], width: int, height: int, wrist_mount, wrist_pose: sapien.Pose, render_quality: str = "fast"
 ) -> list[CameraConfig]:
     """ManiSkill camera configs for the policy cameras `names` (any of POLICY_CAMERAS)."""
-    shader = SHADER_PACKS[check_render_quality(render_quality)]
+    shader = dict(shader_config=shader_config(render_quality))
     configs = []
     for name in names:
         if name == "wrist":
             intrinsic = scaled_intrinsic(WRIST_FOCAL_NATIVE, width, height)
             configs.append(CameraConfig(name, wrist_pose, width, height, intrinsic=intrinsic, near=0.01, far=FAR,
-                                        mount=wrist_mount, shader_pack=shader))  # fmt: skip
+                                        mount=wrist_mount, **shader))  # fmt: skip
         else:
             intrinsic = scaled_intrinsic(EXTERNAL_FOCAL_NATIVE, width, height)
             pose = external_pose(name.removeprefix("external_"))
-            configs.append(CameraConfig(name, pose, width, height, intrinsic=intrinsic, near=0.01, far=FAR,
-                                        shader_pack=shader))  # fmt: skip
+            configs.append(CameraConfig(name, pose, width, height, intrinsic=intrinsic, near=0.01, far=FAR, **shader))
     return configs
 
 
@@ -115,15 +116,25 @@ def video_camera_config(width: int, height: int, render_quality: str = "fast") -
     """A wide third-person view for recordings (`env.render()`); never part of the observations."""
     pose = sapien_utils.look_at(eye=[1.45, 0.85, 0.85], target=[0.45, 0.0, 0.1])
     return CameraConfig("video", pose, width, height, fov=math.radians(60), near=0.01, far=FAR,
-                        shader_pack=SHADER_PACKS[check_render_quality(render_quality)])  # fmt: skip
+                        shader_config=shader_config(render_quality))  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------------------- render quality
 FAR = 20.0  # m: the room's panorama is 7.5 m from the table
 # fast: SAPIEN's rasteriser (its single-pass shader: textures, shadow maps, environment light); high: its ray tracer
-# (path traced, denoised where the GPU offers OptiX). The room, lights and materials are the same for both.
+# with ManiSkill's `rt` settings (32 samples per pixel, path depth 16), denoised with OIDN: OptiX, ManiSkill's choice,
+# failed on an H100 tried here and returned black frames. The room, lights and materials are the same for both.
 SHADER_PACKS = {"fast": "minimal", "high": "rt"}
 RENDER_QUALITIES = tuple(SHADER_PACKS)
+HIGH_DENOISER = "oidn"
+
+
+def shader_config(quality: str) -> ShaderConfig:
+    """ManiSkill's shader settings for a render quality."""
+    config = copy.deepcopy(PREBUILT_SHADER_CONFIGS[SHADER_PACKS[check_render_quality(quality)]])
+    if quality == "high":
+        config.shader_pack_config["ray_tracing_denoiser"] = HIGH_DENOISER
+    return config
 
 
 def check_render_quality(quality: str) -> str:

@@ -64,6 +64,7 @@ class TableMaterial:
     description: str
     license: str
     roughness: float
+    tint: tuple[float, float, float] = (1.0, 1.0, 1.0)  # multiplies the texture's colours (linear RGB)
 
     def path(self) -> Path:
         return package_file(self.package, self.texture)
@@ -128,10 +129,11 @@ def read_looks(file: Path) -> Looks:
     entries = data.sub("table_materials")
     for name in entries.data:
         item = entries.sub(name)
-        item.only(["package", "texture", "description", "license", "roughness"])
+        item.only(["package", "texture", "description", "license", "roughness", "tint"])
         materials[name] = TableMaterial(name, item.get("package", str), item.get("texture", str),
                                         item.get("description", str), item.get("license", str),
-                                        item.number("roughness", 0.0, 1.0, 0.7))  # fmt: skip
+                                        item.number("roughness", 0.0, 1.0, 0.7),
+                                        tuple(item.number_list("tint", 3, [1.0, 1.0, 1.0], low=0.0, high=1.0)))  # fmt: skip
     floors = {}
     entries = data.sub("floors", {})
     for name in entries.data:
@@ -160,7 +162,7 @@ def load_looks() -> Looks:
 
 
 LIGHTING_MAP_WIDTH = 128  # px: the lighting map is downsampled to this width
-ENVIRONMENT_BRIGHTNESS = 0.6  # mean luminance the lighting environment map is scaled to (before `light` factors)
+ENVIRONMENT_BRIGHTNESS = 0.7  # mean luminance the lighting environment map is scaled to (before `light` factors)
 
 
 def _read_hdr(background: Background) -> np.ndarray:
@@ -168,6 +170,14 @@ def _read_hdr(background: Background) -> np.ndarray:
 
     hdr = sapien.render.RenderTexture2D(str(background.path()), srgb=False).download()[..., :3].astype(np.float32)
     return np.nan_to_num(np.clip(hdr, 0.0, 1e4), nan=0.0)
+
+
+def _cache_dir() -> Path:
+    """The folder for generated files, the robot models' too: $ROBOLAB_MS_CACHE, else $XDG_CACHE_HOME/robolab_ms,
+    else ~/.cache/robolab_ms (as robolab_ms.agents.droid_model.cache_dir, without importing ManiSkill)."""
+    if os.environ.get("ROBOLAB_MS_CACHE"):
+        return Path(os.environ["ROBOLAB_MS_CACHE"])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "robolab_ms"
 
 
 def write_radiance_hdr(path: Path, image: np.ndarray) -> None:
@@ -188,10 +198,8 @@ def write_radiance_hdr(path: Path, image: np.ndarray) -> None:
 def lighting_map(name: str, light: float = 1.0) -> Path:
     """The background's HDR map scaled so its mean luminance is ENVIRONMENT_BRIGHTNESS x `light`: the same room
     lights every scene about equally (the key light adds shadows). Written once into the cache folder."""
-    from robolab_ms.agents.droid_model import cache_dir
-
     background = load_looks().background(name)
-    target = cache_dir() / "hdri" / f"{Path(background.file).stem}_{LIGHTING_MAP_WIDTH}_{ENVIRONMENT_BRIGHTNESS * light:.4f}.hdr"
+    target = _cache_dir() / "hdri" / f"{Path(background.file).stem}_{LIGHTING_MAP_WIDTH}_{ENVIRONMENT_BRIGHTNESS * light:.4f}.hdr"
     if not target.is_file():
         hdr = _read_hdr(background)
         factor = max(1, hdr.shape[1] // LIGHTING_MAP_WIDTH)  # a small map: SAPIEN filters it on every scene build

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import sapien
 import torch
@@ -29,10 +31,21 @@ TABLE_TOP_THICKNESS = 0.035
 ROOM_RADIUS = 7.0  # m: half the floor's size; the panorama sphere is just outside it
 PANORAMA_EYE_HEIGHT = 1.5  # m above the floor: where the panorama's camera stood
 AMBIENT_LIGHT = (0.0, 0.0, 0.0)
-KEY_LIGHT_DIRECTION = (0.25, -0.2, -1.0)  # from above, behind the robot's left shoulder
-KEY_LIGHT_COLOR = (0.8, 0.77, 0.72)  # a warm white
+KEY_LIGHT_DIRECTION = (-0.45, -0.25, -1.0)  # from above, in front of the robot and to its left
+KEY_LIGHT_COLOR = (0.7, 0.67, 0.62)  # a warm white
 SHADOW_HALF_SIZE = 1.0  # m: the key light's shadow covers the table and the robot
 SHADOW_MAP_SIZE = 1024
+
+
+@dataclass(frozen=True)
+class LightSetup:
+    """The room's light as built: the key light's direction (where it shines to) and colour, the ambient light and
+    the factor on the environment map's light. The defaults are the room's own; robolab_ms.variations changes them."""
+
+    key_direction: tuple[float, float, float] = KEY_LIGHT_DIRECTION
+    key_color: tuple[float, float, float] = KEY_LIGHT_COLOR
+    ambient: tuple[float, float, float] = AMBIENT_LIGHT
+    environment: float = 1.0
 
 
 def _is_default_brown(rgba) -> bool:
@@ -52,6 +65,8 @@ class RoboLabSceneBuilder(SceneBuilder):
         self.objects: dict[str, Actor] = {}
         looks = load_looks()
         self.background = looks.background(spec.background or looks.default_background)
+        self.table_material: str | None = None  # a table material in place of the scene's (set before build)
+        self.light = LightSetup()  # the room's light (set before build)
 
     def build(self, build_config_idxs: list[int] | None = None) -> None:
         self.table = self._build_table()
@@ -59,7 +74,8 @@ class RoboLabSceneBuilder(SceneBuilder):
         self.pedestal = self._build_stand()
         self.ground = self._build_floor()
         self.backdrop = self._build_backdrop()
-        environment_map = lighting_cubemap(self.background.name)
+        light = self.light.environment
+        environment_map = lighting_cubemap(self.background.name, light) if light != 1.0 else lighting_cubemap(self.background.name)
         for sub_scene in self.scene.sub_scenes:
             sub_scene.set_environment_map(environment_map)
 
@@ -136,9 +152,9 @@ class RoboLabSceneBuilder(SceneBuilder):
         """The room's light: a shadow-casting key light from above the table, the environment map and a little
         ambient light. Called by the environment in place of ManiSkill's default lighting."""
         shadow_map_size = shadow_map_size or self.shadow_map_size
-        self.scene.set_ambient_light(list(AMBIENT_LIGHT))
+        self.scene.set_ambient_light(list(self.light.ambient))
         self.scene.add_directional_light(
-            list(KEY_LIGHT_DIRECTION), list(KEY_LIGHT_COLOR), shadow=shadows,
+            list(self.light.key_direction), list(self.light.key_color), shadow=shadows,
             position=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], 0.0], shadow_scale=SHADOW_HALF_SIZE,
             shadow_near=-2.0, shadow_far=2.0, shadow_map_size=shadow_map_size,
         )  # fmt: skip
@@ -147,13 +163,13 @@ class RoboLabSceneBuilder(SceneBuilder):
         """The table top's look: the scene's table material, the default wood for a brown table, or a laminate in
         the scene's table colour."""
         looks = load_looks()
-        name = self.spec.table_material
+        name = self.table_material or self.spec.table_material
         if name is None and _is_default_brown(self.spec.table_rgba):
             name = looks.default_table_material
         if name is None:
             return render_material(Look("painted_wood", tuple(self.spec.table_rgba[:3]), 0.5))
         material = looks.table_material(name)
-        render = sapien.render.RenderMaterial(base_color=[1.0, 1.0, 1.0, 1.0], roughness=material.roughness)
+        render = sapien.render.RenderMaterial(base_color=[*material.tint, 1.0], roughness=material.roughness)
         render.base_color_texture = texture_from_file(str(material.path()))
         return render
 
