@@ -264,10 +264,15 @@ def main(argv: list[str] | None = None) -> int:
     unpack = actions.add_parser("unpack", help="decode the HDR maps of an @pmndrs/assets tarball")
     unpack.add_argument("tarball", type=Path)
     actions.add_parser("check", help="exit 0 when every listed HDR map is installed")
+    actions.add_parser("lighting", help="write the scaled lighting maps of every background into the cache folder")
     args = parser.parse_args(argv)
     if args.action == "unpack":
         files = unpack_hdris(args.tarball)
         print(f"{len(files)} HDR maps in {hdri_dir()}")
+        return 0
+    if args.action == "lighting":
+        paths = [lighting_map(name) for name in load_looks().backgrounds]
+        print(f"{len(paths)} lighting maps in {paths[0].parent}")
         return 0
     missing = [bg.name for bg in load_looks().backgrounds.values() if not (hdri_dir() / bg.file).is_file()]
     if missing:
