@@ -87,7 +87,8 @@ def episode_frame(results: Sequence[EpisodeResult]) -> pd.DataFrame:
     rows = []
     for result in results:
         row = {key: value for key, value in asdict(result).items() if key not in ("metrics", "event_counts",
-                                                                               "event_objects", "events")}  # fmt: skip
+                                                                               "event_objects", "events", "variation")}  # fmt: skip
+        row.update(getattr(result, "variation", None) or {})  # drawn variation parameters, one column each
         for key, column, factor in METRIC_COLUMNS:
             value = (result.metrics or {}).get(key)
             row[column] = float("nan") if value is None else float(value) * factor

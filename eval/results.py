@@ -1,8 +1,8 @@
 """The results format: one JSON line per episode in `episodes.jsonl`, appended and flushed as each episode ends.
 
-Every line records the tuple that defines its episode (task, instruction variant, robot, policy, seed), so any
-episode can be replayed, and the outcome (success, score, progress, steps, timings, error). Tables are derived from
-these lines, never the other way round. A run interrupted mid-line leaves at most one partial last line, which
+Every line records the tuple that defines its episode (task, instruction variant, robot, policy, seed, and the
+variation settings with the parameters they drew), so any episode can be replayed, and the outcome (success, score,
+progress, steps, timings, error). Tables are derived from these lines, never the other way round. A run interrupted mid-line leaves at most one partial last line, which
 `read_results` ignores, so a rerun resumes after the last complete episode.
 """
 
@@ -48,6 +48,9 @@ class EpisodeResult:
     env_step_ms: float | None = None  # mean time of one env step (physics, task logic, cameras)
     steps_per_second: float | None = None  # control steps per second of wall time, reset included
     clipped_steps: int = 0  # steps whose arm joint targets were outside the robot's limits and were clipped
+    variations: str | None = None  # the variation settings (`--vary` text; None: the scenes as they are)
+    condition: str | None = None  # the suite condition the episode ran under (`--suite`), if any
+    variation: dict[str, float | int | str] = field(default_factory=dict)  # drawn parameters, flat (docs/variations.md)
     version: int = RESULTS_VERSION
 
     def key(self) -> tuple:

@@ -41,6 +41,8 @@ class EvalConfig:
     retry_errors: bool = False  # run episodes again whose last result is errored (otherwise a rerun skips them)
     save_actions: bool = False  # keep each episode's executed actions (OUT/actions/..., for the replay policy)
     reconnect_seconds: float = 30.0  # after a lost policy server: retry connecting this long before giving up
+    variations: str | None = None  # domain randomization settings (`--vary` text, robolab_ms.variations); None: none
+    condition: str | None = None  # the suite condition these settings come from (`--suite`), recorded per episode
 
     @property
     def episodes_at_most(self) -> int:
@@ -49,8 +51,11 @@ class EvalConfig:
 
 def env_kwargs(policy: Policy, config: EvalConfig) -> dict[str, Any]:
     """The keyword arguments of `gym.make` for every task of this evaluation."""
-    return {"obs_mode": "rgb" if policy.needs_images else "state_dict", "instruction": config.instruction,
-            "robot_uids": config.robot, "render_backend": "cpu"}  # fmt: skip
+    kwargs = {"obs_mode": "rgb" if policy.needs_images else "state_dict", "instruction": config.instruction,
+              "robot_uids": config.robot, "render_backend": "cpu"}  # fmt: skip
+    if config.variations:
+        kwargs["variations"] = config.variations
+    return kwargs
 
 
 def adaptive_sampling_done(successes: int, episodes: int, max_episodes: int, ci_width: float) -> bool:
@@ -91,6 +96,7 @@ def _run_all(policy: Policy, config: EvalConfig, out_dir: Path, show_progress: b
     specs = [load_task(task) for task in config.tasks]  # check every task before running any
     _write_manifest(out_dir, policy, config)
     done = {r.key(): r for r in read_results(out_dir)}
+    _check_same_variations(done.values(), policy, config, out_dir)
     bar = tqdm(total=len(specs) * config.episodes_at_most, desc=f"eval {policy.name}", unit="episode",
                disable=not show_progress, dynamic_ncols=True)  # fmt: skip
     env, env_task, recorder = None, None, None
@@ -229,12 +235,13 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
     base = env.unwrapped
     max_steps = min(spec.max_episode_steps, config.max_steps or spec.max_episode_steps)
     start = time.perf_counter()
-    steps, success_step, info, error = 0, None, {}, None
+    steps, success_step, info, error, variation = 0, None, {}, None, {}
     droid = _droid_view(env) if policy.needs_images else None
     space = base.single_action_space
     stats = _PolicyStats()
     try:
         observation, info = env.reset(seed=seed)
+        variation = base.variation_params
         if recorder is not None:
             recorder.on_reset(seed, observation, info, max_steps)
         if policy.privileged:
@@ -285,7 +292,22 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
         events=list(info["events"][0]) if "events" in info else [],
         **stats.fields(policy, steps, wall_seconds),
         **extras,
+        variations=config.variations or None,
+        condition=config.condition,
+        variation=variation,
     )
+
+
+def _check_same_variations(done: Any, policy: Policy, config: EvalConfig, out_dir: Path) -> None:
+    """A results folder holds one policy's episodes under one variation setting: resuming into a folder whose
+    episodes ran under other settings would mix them (and skip episodes as if done)."""
+    settings = {r.variations or None for r in done if r.policy == policy.name}
+    others = settings - {config.variations or None}
+    if others:
+        found = ", ".join(sorted(f"'{o}'" if o else "none" for o in others))
+        given = f"'{config.variations}'" if config.variations else "none"
+        raise RoboLabError(f"{out_dir} holds episodes of policy '{policy.name}' run with variations {found}, not "
+                           f"{given}; give another --out for these settings")  # fmt: skip
 
 
 def _write_manifest(out_dir: Path, policy: Policy, config: EvalConfig) -> None:
@@ -298,6 +320,7 @@ def _write_manifest(out_dir: Path, policy: Policy, config: EvalConfig) -> None:
         "command": ["robolab", *sys.argv[1:]] if Path(sys.argv[0]).name == "robolab" else list(sys.argv),
         "rerun": rerun_command(policy, config, out_dir),
         "env_kwargs": env_kwargs(policy, config),
+        **_variation_manifest(config),
         "versions": {pkg: version(pkg) for pkg in ("robolab-ms", "mani-skill", "sapien", "torch", "gymnasium")},
         "python": platform.python_version(),
         "platform": platform.platform(),
@@ -328,6 +351,8 @@ def rerun_command(policy: Policy, config: EvalConfig, out_dir: Path) -> str:
         words.append("--video")
     if config.save_actions:
         words.append("--save-actions")
+    if config.variations:
+        words += ["--vary", config.variations]
     words += policy.command_line_options()
     return shlex.join(words)
 
@@ -349,3 +374,13 @@ def _git_revision() -> str | None:
         return output.stdout.strip() or None
     except (OSError, subprocess.SubprocessError):
         return None
+
+
+def _variation_manifest(config: EvalConfig) -> dict[str, Any]:
+    """The manifest's `variations` entry: the settings and every parameter's range (empty without variations)."""
+    if not config.variations:
+        return {}
+    from robolab_ms.variations import Variations
+
+    return {"variations": {"settings": config.variations, "condition": config.condition,
+                           "ranges": Variations.create(config.variations).ranges()}}  # fmt: skip

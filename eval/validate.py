@@ -51,16 +51,18 @@ class TaskValidation:
     problems: str
 
 
-def check_rest(task: str, seeds: range) -> tuple[float, int]:
+def check_rest(task: str, seeds: range, variations: str | None = None) -> tuple[float, int]:
     """Largest object drift (m) over 300 physics steps with the arm holding still, and how many seeds count as
-    solved right after reset. `task`: a name or a task file."""
+    solved right after reset. `task`: a name or a task file; `variations`: domain randomization settings."""
     import gymnasium as gym
 
     from robolab_ms.envs import register_task_file
     from robolab_ms.tasks.spec import load_task
 
     spec = load_task(task)
-    env = gym.make(register_task_file(spec.file), task=str(spec.file), obs_mode="state_dict", render_backend="cpu")
+    extra = {"variations": variations} if variations else {}
+    env = gym.make(register_task_file(spec.file), task=str(spec.file), obs_mode="state_dict", render_backend="cpu",
+                   **extra)  # fmt: skip
     base = env.unwrapped
     worst, solved = 0.0, 0
     try:
@@ -261,9 +263,9 @@ def group_explanations(explained: list[tuple[int, str]]) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ one task
-def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0,
-                  show_progress: bool = True) -> TaskValidation:  # fmt: skip
-    """Run every check on one task (a name or a task file); episodes go to `out_dir`."""
+def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True,
+                  variations: str | None = None) -> TaskValidation:  # fmt: skip
+    """Run every check on one task (a name or a task file), under `variations` if given; episodes go to `out_dir`."""
     from robolab_ms.envs import register_task_file
     from robolab_ms.policies import make_policy
     from robolab_ms.tasks.spec import load_task
@@ -271,8 +273,8 @@ def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0,
     spec = load_task(task)
     register_task_file(spec.file, replace=True)  # the id loads exactly this file in this process
     seed_range = range(first_seed, first_seed + seeds)
-    drift, solved_at_reset = check_rest(str(spec.file), seed_range)
-    config = EvalConfig(tasks=(str(spec.file),), episodes=seeds, first_seed=first_seed)
+    drift, solved_at_reset = check_rest(str(spec.file), seed_range, variations)
+    config = EvalConfig(tasks=(str(spec.file),), episodes=seeds, first_seed=first_seed, variations=variations)
     random_results = run_evaluation(make_policy("random"), config, out_dir, show_progress)
     oracle = WatchedPolicy(make_policy("oracle"))
     oracle_results = run_evaluation(oracle, config, out_dir, show_progress)

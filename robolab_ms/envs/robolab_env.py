@@ -67,6 +67,9 @@ class RoboLabEnv(BaseEnv):
         render_quality: `fast` (rasterised, shadow maps; the default) or `high` (SAPIEN's ray tracer, for GPUs).
         sensor_effects: exposure, white balance, blur and noise of the policy cameras
             (`robolab_ms.envs.cameras.SensorEffects` or a dict of its fields; default: none).
+        variations: domain randomization drawn from each episode's seed (`robolab_ms.variations`): text such as
+            "lighting,objects=0.2", a dict, or a Variations; default none (the scene exactly as its file says).
+            One environment per process (num_envs=1); the scene is rebuilt at every reset.
         Other keyword arguments go to ManiSkill's BaseEnv (obs_mode, render_mode, sim_backend, ...).
     """
 
@@ -88,6 +91,7 @@ class RoboLabEnv(BaseEnv):
         video_height: int = 360,
         render_quality: str = "fast",
         sensor_effects: cameras_module.SensorEffects | dict | None = None,
+        variations: Any = None,
         **kwargs: Any,
     ) -> None:
         self.task_spec = load_task(task)
@@ -102,6 +106,7 @@ class RoboLabEnv(BaseEnv):
         self.render_quality = cameras_module.check_render_quality(render_quality)
         self.sensor_effects = cameras_module.SensorEffects.create(sensor_effects)
         self.catalog = load_catalog()
+        self._setup_variations(variations, kwargs)
         self._exact_episodes = kwargs.get("num_envs", 1) == 1 and kwargs.get("sim_backend", "auto") in CPU_BACKENDS
         if self._exact_episodes:
             kwargs.setdefault("reconfiguration_freq", 1)  # a brand-new PhysX scene for every episode
@@ -131,10 +136,11 @@ class RoboLabEnv(BaseEnv):
     @property
     def _default_sensor_configs(self) -> list[CameraConfig]:
         mount = self.agent.robot.links_map[self.robot.wrist_mount_link]
-        return cameras_module.policy_camera_configs(
+        configs = cameras_module.policy_camera_configs(
             self.camera_names, self.camera_width, self.camera_height, mount, cameras_module.wrist_pose(self.robot),
             self.render_quality,
         )
+        return configs if self.variation is None else self.variation.camera_configs(configs)
 
     @property
     def _default_human_render_camera_configs(self) -> CameraConfig:
@@ -177,7 +183,12 @@ class RoboLabEnv(BaseEnv):
     def _load_scene(self, options: dict) -> None:
         spec = self.task_spec
         self.scene_builder = RoboLabSceneBuilder(self, spec.scene, self.catalog)
+        self._draw_variation()
+        if self.variation is not None:
+            self.variation.configure_builder(self.scene_builder)
         self.scene_builder.build()
+        if self.variation is not None:
+            self.variation.after_build(self.scene_builder)
         self.objects = self.scene_builder.objects
         entries = {p.name: self.catalog[p.asset] for p in spec.scene.objects}
         entries[TABLE] = self.scene_builder.table_entry
@@ -200,7 +211,48 @@ class RoboLabEnv(BaseEnv):
             count = len(env_idx)
             self.agent.reset(self._home_qpos.repeat(count, 1))
             self.agent.robot.set_pose(Pose.create(self._robot_base_pose()))
+            if self.variation is not None:
+                self.variation.initialize(self, env_idx)
             self.task_evaluator.reset(env_idx)
+
+    # ------------------------------------------------------------------------------------------------ variations
+    def _setup_variations(self, variations: Any, kwargs: dict) -> None:
+        """Check the variation settings; they need one environment whose scene is rebuilt at every reset."""
+        from robolab_ms.variations import Variations
+
+        self.variations = Variations.create(variations)
+        self.variation = None  # the current episode's EpisodeVariation (None without variations)
+        self._sensor_effects_asked = self.sensor_effects
+        if not self.variations:
+            return
+        if kwargs.get("num_envs", 1) != 1:
+            raise RoboLabError(f"variations need one environment per process (num_envs=1), got num_envs={kwargs['num_envs']}")
+        if kwargs.setdefault("reconfiguration_freq", 1) != 1:
+            raise RoboLabError("variations rebuild the scene at every reset: leave reconfiguration_freq at 1")
+
+    def _draw_variation(self) -> None:
+        """Draw this episode's variation parameters from its seed (a pure function of seed and settings)."""
+        if not self.variations:
+            self.variation, self.sensor_effects = None, self._sensor_effects_asked
+            return
+        from robolab_ms.variations import Context
+
+        context = Context(self.task_spec, self.catalog, self.camera_names, len(self.robot.arm_joints))
+        self.variation = self.variations.draw(int(self._episode_seed[0]), context)
+        self.sensor_effects = self.variation.sensor_effects(self._sensor_effects_asked)
+
+    def set_variations(self, variations: Any) -> None:
+        """Use these variation settings (as the `variations` argument) from the next reset on."""
+        from robolab_ms.variations import Variations
+
+        if self.num_envs != 1 or self.reconfiguration_freq != 1:
+            raise RoboLabError("set_variations needs one environment that rebuilds its scene at every reset")
+        self.variations = Variations.create(variations)
+
+    @property
+    def variation_params(self) -> dict[str, float | int | str]:
+        """The current episode's drawn variation parameters, flat (empty without variations)."""
+        return {} if self.variation is None else dict(self.variation.fields)
 
     def gripper_closed_fraction(self) -> torch.Tensor:
         """How far the gripper is closed, 0 open to 1 closed: (num_envs,)."""
