@@ -10,11 +10,16 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from robolab_ms.errors import RoboLabError
+
 EPISODES_FILE = "episodes.jsonl"
+WRITER_LOCK_FILE = ".writer.lock"  # held by the run that writes the folder (see exclusive_writer)
 RESULTS_VERSION = 1
 
 
@@ -66,11 +71,44 @@ def append_result(out_dir: Path, result: EpisodeResult) -> None:
     path = Path(out_dir) / EPISODES_FILE
     line = json.dumps(asdict(result), sort_keys=True)
     with path.open("a", encoding="utf-8") as handle:
+        _lock(handle.fileno())  # one appender at a time, across processes too (released when the file closes)
         if handle.tell() > 0 and not _ends_with_newline(path):
             handle.write("\n")  # a previous run died mid-line: start a fresh line
         handle.write(line + "\n")
         handle.flush()
         os.fsync(handle.fileno())
+
+
+def _lock(fd: int, wait: bool = True) -> bool:
+    """Take the exclusive advisory lock of an open file (POSIX; elsewhere nothing); False if `wait` is off and
+    another process holds it."""
+    try:
+        import fcntl
+    except ImportError:
+        return True
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+    except BlockingIOError:
+        return False
+    return True
+
+
+@contextmanager
+def exclusive_writer(out_dir: Path) -> Iterator[None]:
+    """Hold the results folder for one run: a second `robolab eval` on the same folder at the same time (which
+    would run the same episodes twice) stops with an error instead. A killed run's hold ends with its process."""
+    path = Path(out_dir) / WRITER_LOCK_FILE
+    with path.open("a+", encoding="utf-8") as handle:
+        if not _lock(handle.fileno(), wait=False):
+            handle.seek(0)
+            holder = handle.read().strip() or "another process"
+            raise RoboLabError(f"{out_dir} is being written by {holder}; wait for that run to end or choose another "
+                               "--out")  # fmt: skip
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"robolab eval (pid {os.getpid()})\n")
+        handle.flush()
+        yield
 
 
 def _ends_with_newline(path: Path) -> bool:

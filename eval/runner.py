@@ -18,7 +18,7 @@ from tqdm import tqdm
 
 from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.recording import EpisodeRecorder, RecordOptions
-from robolab_ms.eval.results import EpisodeResult, append_result, episode_key, read_results
+from robolab_ms.eval.results import EpisodeResult, append_result, episode_key, exclusive_writer, read_results
 from robolab_ms.policies import EpisodeInfo, Policy, PolicyReplyError, PolicyUnavailableError
 
 MANIFEST_FILE = "manifest.json"
@@ -75,11 +75,13 @@ def run_evaluation(policy: Policy, config: EvalConfig, out_dir: Path, show_progr
     """Run every missing episode and append its result; returns all results of this policy in `out_dir`.
 
     The policy is connected first: PolicyUnavailableError (no server at the address) stops before any episode."""
-    policy.connect()
-    try:
-        return _run_all(policy, config, out_dir, show_progress)
-    finally:
-        policy.close()
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    with exclusive_writer(out_dir):  # one run per results folder at a time
+        policy.connect()
+        try:
+            return _run_all(policy, config, out_dir, show_progress)
+        finally:
+            policy.close()
 
 
 def _run_all(policy: Policy, config: EvalConfig, out_dir: Path, show_progress: bool) -> list[EpisodeResult]:

@@ -6,6 +6,8 @@ Examples:
   robolab catalog build | check [--objects NAME ...] | sheet | list
   robolab eval --policy oracle --task BananaInBowl --episodes 10
   robolab validate --task BananaInBowl --seeds 10
+  robolab eval --policy oracle --task BananaInBowl --vary lighting,objects=0.2   # domain randomization
+  robolab suites                                        # then: robolab eval --suite lighting ...
   robolab serve --policy random --port 8000            # then: robolab eval --policy openpi --port 8000 ...
 """
 
@@ -99,12 +101,14 @@ def _cmd_list(args: argparse.Namespace) -> int:
 def _cmd_eval(args: argparse.Namespace) -> int:
     from robolab_ms.analysis.tables import SUMMARY_MD, summary_markdown, write_summary
     from robolab_ms.eval.results import EPISODES_FILE
-    from robolab_ms.eval.runner import EvalConfig, run_evaluation
+    from robolab_ms.eval.runner import EvalConfig
     from robolab_ms.policies import make_policy
     from robolab_ms.tasks.spec import INSTRUCTION_VARIANTS
 
     if args.episodes < 1:
         raise RoboLabError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.workers is not None and args.workers < 1:
+        raise RoboLabError(f"--workers must be at least 1, got {args.workers}")
     _check_adaptive(args)
     _select_tasks(args)
     if not args.task:
@@ -123,10 +127,13 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     config = EvalConfig(tasks=tasks, episodes=args.episodes, instruction=args.instruction, robot=robot,
                         first_seed=args.seed, max_steps=args.max_steps, record=_record_options(args),
                         episodes_adaptive=args.episodes_adaptive, ci_width=args.ci_width, retry_errors=args.retry_errors,
-                        save_actions=args.save_actions, reconnect_seconds=args.reconnect_seconds)  # fmt: skip
+                        save_actions=args.save_actions, reconnect_seconds=args.reconnect_seconds,
+                        variations=_vary_text(args.vary))  # fmt: skip
     out = Path(args.out)
+    if args.suite:
+        return _run_suite(args, policy, config, out)
     try:
-        results = run_evaluation(policy, config, out, show_progress=not args.quiet)
+        results = _run(args, policy, config, out)
     except KeyboardInterrupt:
         from robolab_ms.eval.results import read_results
 
@@ -137,6 +144,68 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     table = write_summary(results, out)
     print(summary_markdown(table))
     print(f"episodes: {out / EPISODES_FILE}\nsummary:  {out / SUMMARY_MD} (and summary.csv)")
+    return 0
+
+
+def _run(args: argparse.Namespace, policy, config, out: Path) -> list:
+    """Run one evaluation into `out`: in this process, or in --workers processes / on a --ray cluster."""
+    from robolab_ms.eval.runner import run_evaluation
+
+    if args.ray or (args.workers or 1) > 1:
+        from robolab_ms.eval.parallel import PolicySpec, run_parallel
+
+        return run_parallel(policy, PolicySpec(args.policy, _policy_options(args)), config, out,
+                            workers=args.workers, ray=args.ray, show_progress=not args.quiet)  # fmt: skip
+    return run_evaluation(policy, config, out, show_progress=not args.quiet)
+
+
+def _vary_text(vary: list[str] | None) -> str | None:
+    """The `--vary` settings as one checked text (None when not given)."""
+    if not vary:
+        return None
+    from robolab_ms.variations import Variations
+
+    return Variations.create(",".join(vary)).text or None
+
+
+def _run_suite(args: argparse.Namespace, policy, config, out: Path) -> int:
+    """Run every condition of `--suite` into OUT/<condition>/ (with any --vary settings first), then write
+    OUT/suite.csv and OUT/suite.md."""
+    from dataclasses import replace
+
+    from robolab_ms.variations import suite_conditions
+    from robolab_ms.variations.suites import suite_summary
+
+    suite, conditions = suite_conditions(args.suite)
+    for condition, settings in conditions.items():
+        text = _vary_text([t for t in (config.variations, settings) if t])
+        folder = out / condition
+        print(f"suite {suite.name}: condition {condition} ({text or 'nothing varies'}) -> {folder}", file=sys.stderr)
+        try:
+            _run(args, policy, replace(config, variations=text, condition=condition), folder)
+        except KeyboardInterrupt:
+            print(f"\ninterrupted: finished episodes are kept in {out}/<condition>/; run the same command again to "
+                  "resume", file=sys.stderr)  # fmt: skip
+            return 130
+    markdown = suite_summary(out, suite, list(conditions), policy.name)
+    print(markdown.read_text(encoding="utf-8"))
+    print(f"suite summary: {markdown} (and suite.csv); episodes: {out}/<condition>/episodes.jsonl")
+    return 0
+
+
+def _cmd_suites(args: argparse.Namespace) -> int:
+    from robolab_ms.variations import AXES, suites
+
+    for suite in suites().values():
+        print(f"{suite.name}: {suite.description}")
+        width = max(len(c) for c in suite.conditions)
+        for condition, settings in suite.conditions.items():
+            print(f"  {condition.ljust(width)}  {settings or '(nothing varies)'}")
+    print("\naxes for --vary (AXIS, AXIS=VALUE, AXIS.PARAM=VALUE; see docs/variations.md):")
+    for axis in AXES.values():
+        params = ", ".join(p.name for p in axis.params)
+        print(f"  {axis.name}: {axis.summary} [{params}]")
+    print("\nrun one with: robolab eval --suite NAME[:CONDITION/CONDITION] --policy ... --task ... --out DIR")
     return 0
 
 
@@ -359,7 +428,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for task in tasks:
-        rows.append(validate_task(task, args.seeds, out, args.seed, show_progress=not args.quiet))
+        rows.append(validate_task(task, args.seeds, out, args.seed, show_progress=not args.quiet,
+                                  variations=_vary_text(args.vary)))  # fmt: skip
         report = write_report(rows, out)  # after every task: an interrupted run keeps what it checked
     print(report.read_text(), end="")
     for row in rows:
@@ -425,6 +495,23 @@ def build_parser() -> argparse.ArgumentParser:
     _add_policy_options(evaluate, "127.0.0.1")
     _add_task_filters(evaluate)
     _add_record_options(evaluate)
+    varying = evaluate.add_argument_group("domain randomization", "each episode's parameters are drawn from its seed "
+                                          "and recorded on its result line (docs/variations.md)")  # fmt: skip
+    varying.add_argument("--vary", action="append", metavar="SETTINGS",
+                         help="axes to vary: lighting, background, table, camera, objects, robot, noise, distractors; "
+                         "AXIS=VALUE sets a condition or range (objects=0.2, lighting=dim, camera=wrist), "
+                         "AXIS.PARAM=VALUE one parameter (lighting.intensity=0.5:2); comma-separated, repeatable")  # fmt: skip
+    varying.add_argument("--suite", metavar="NAME[:COND/COND]",
+                         help="run a named suite (lighting, background, table, camera, objects; see `robolab "
+                         "suites`), one results folder OUT/<condition> per condition, and write OUT/suite.md")  # fmt: skip
+    scale = evaluate.add_argument_group("parallel and distributed runs", "Every worker has its own policy "
+                                        "instance and environment; only this process writes OUT (docs/scaling.md)")  # fmt: skip
+    scale.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="run episodes in N processes on this machine (default: 1, in this process); with --ray: "
+                       "N Ray actors (default: one per CPU of the cluster)")  # fmt: skip
+    scale.add_argument("--ray", metavar="ADDRESS", default=None,
+                       help="spread episodes over a Ray cluster: its address (host:6379, ray://host:10001), auto "
+                       "(the cluster this machine belongs to), or local (start Ray on this machine for this run)")  # fmt: skip
     evaluate.set_defaults(run=_cmd_eval)
 
     replay = commands.add_parser(
@@ -471,9 +558,16 @@ def build_parser() -> argparse.ArgumentParser:
     validate.add_argument("--seed", type=int, default=0, help="first seed (default: 0)")
     validate.add_argument("--out", default="results/validate", help="results folder (default: results/validate)")
     validate.add_argument("--quiet", action="store_true", help="no progress bars")
+    validate.add_argument("--vary", action="append", metavar="SETTINGS",
+                          help="validate under domain randomization, as `robolab eval --vary` (e.g. objects=0.2)")  # fmt: skip
     validate.set_defaults(run=_cmd_validate)
 
     from robolab_ms import fidelity
+
+    listing_suites = commands.add_parser("suites", help="list the named variation suites and the --vary axes",
+                                         description="The named suites of RoboLab's robustness experiments "
+                                         "(conditions and their --vary settings) and every variation axis.")  # fmt: skip
+    listing_suites.set_defaults(run=_cmd_suites)
 
     render_check = commands.add_parser(
         "render-check", help="name the rendering device and measure how DROID-like every scene looks",
