@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{scene}: {out / f'{scene}.png'}")
     images = {path.stem: Image.open(path).convert("RGB") for path in sorted(out.glob("*.png"))
               if path.stem != "contact_sheet"}  # fmt: skip
-    save(contact_sheet(images), out / "contact_sheet.png", colors=64)
+    save(contact_sheet(images), out / "contact_sheet.png", colors=32)
     print(f"contact sheet: {out / 'contact_sheet.png'} ({len(images)} scenes)")
     return 0
 
