@@ -1,8 +1,8 @@
 """Distractors: new colours and surface textures for the objects a task does not name (LIBERO-Plus perturbs these).
 
 A distractor is a scene object that no success condition or subtask of the task names, as an object or as a
-reference. Its new colour is never one of the task objects' colours, so an instruction such as "the red mug" keeps
-pointing at one object. The new look replaces the texture of every visual part: a generated texture of the drawn
+reference. Its new colour is never one of the task objects' colours nor close to one (within SIMILAR_COLOUR in RGB:
+dark red for red, gold or orange for yellow), so an instruction such as "the red mug" keeps pointing at one object. The new look replaces the texture of every visual part: a generated texture of the drawn
 kind in the drawn colour (`own` keeps the object's own kind, or tints a texture image of its own).
 """
 
@@ -13,6 +13,7 @@ from typing import Any
 from robolab_ms.variations.base import Axis, Choice, Context, FieldValue, Names, Param, Range, VariationError, stream
 
 TEXTURES = ("plastic", "wood", "metal", "ceramic", "rubber", "paper", "print")
+SIMILAR_COLOUR = 0.5  # RGB distance under which a colour counts as a task object's colour
 
 
 def _colours() -> list[str]:
@@ -56,11 +57,9 @@ class DistractorAxis(Axis):
     shorthand = None
 
     def sample(self, ranges: dict[str, Range], seed: int, context: Context) -> dict[str, FieldValue]:
-        taken = {colour for name in task_objects(context.task)
-                 for colour in context.catalog[_asset(context, name)].colors}  # fmt: skip
         colours = ranges["color"]
         if colours.describe() != ["own"]:
-            free = tuple(c for c in colours.options if c not in taken)
+            free = tuple(c for c in colours.options if c not in task_colours(context))
             colours = Choice(free or ("own",))
         fields: dict[str, FieldValue] = {}
         for name in distractors(context, ranges["names"]):
@@ -73,6 +72,16 @@ class DistractorAxis(Axis):
             if f"distractor_{name}_color" in fields:
                 entry = context.catalog[_asset(context, name)]
                 restyle(actor, entry, str(fields[f"distractor_{name}_color"]), str(fields[f"distractor_{name}_texture"]))
+
+
+def task_colours(context: Context) -> set[str]:
+    """Catalog colour names a distractor must not take: the task objects' colours and those close to them."""
+    from robolab_ms.catalog import COLOR_NAMES
+
+    taken = [COLOR_NAMES[c] for name in task_objects(context.task) for c in context.catalog[_asset(context, name)].colors
+             if c in COLOR_NAMES]  # fmt: skip
+    return {name for name, rgb in COLOR_NAMES.items()
+            if any(sum((a - b) ** 2 for a, b in zip(rgb, other)) ** 0.5 < SIMILAR_COLOUR for other in taken)}  # fmt: skip
 
 
 def _asset(context: Context, name: str) -> str:
