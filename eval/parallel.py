@@ -570,7 +570,7 @@ def run_parallel(policy: Policy, policy_spec: PolicySpec, config: EvalConfig, ou
 
     The same episodes and results as `run_evaluation`, in another order in `episodes.jsonl`."""
     from robolab_ms.agents.bindings import DEFAULT_ROBOT
-    from robolab_ms.eval.runner import _write_manifest, _write_tables
+    from robolab_ms.eval.runner import _check_same_variations, _write_manifest, _write_tables
     from robolab_ms.eval.results import exclusive_writer
     from robolab_ms.tasks.spec import load_task
 
@@ -581,6 +581,7 @@ def run_parallel(policy: Policy, policy_spec: PolicySpec, config: EvalConfig, ou
     out_dir.mkdir(parents=True, exist_ok=True)
     specs = [load_task(task) for task in config.tasks]  # check every task before starting any worker
     with exclusive_writer(out_dir):
+        _check_same_variations(read_results(out_dir), policy, config, out_dir)
         _write_manifest(out_dir, policy, config)
         bar = tqdm(total=len(specs) * config.episodes_at_most, desc=f"eval {policy.name}", unit="episode",
                    disable=not show_progress, dynamic_ncols=True)  # fmt: skip

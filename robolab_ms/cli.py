@@ -9,6 +9,8 @@ Examples:
   robolab eval --policy oracle --task BananaInBowl --vary lighting,objects=0.2   # domain randomization
   robolab suites                                        # then: robolab eval --suite lighting ...
   robolab serve --policy random --port 8000            # then: robolab eval --policy openpi --port 8000 ...
+  robolab eval --policy random --task all --episodes 20 --workers 2    # or --ray ADDRESS / auto / local
+  robolab export lerobot results/demo datasets/demo     # episodes recorded with --record-images
 """
 
 from __future__ import annotations
@@ -325,6 +327,37 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+def _cmd_export_lerobot(args: argparse.Namespace) -> int:
+    from robolab_ms.eval.export_lerobot import export_lerobot
+
+    report = export_lerobot(Path(args.run_dir), Path(args.out_dir), success_only=args.success_only, tasks=args.task,
+                            videos=not args.no_videos)  # fmt: skip
+    for reason in report.skipped:
+        print(f"skipped {reason}", file=sys.stderr)
+    print(f"LeRobot dataset (v3.0): {report.line()}")
+    return 0
+
+
+def _add_export_commands(commands) -> None:
+    export = commands.add_parser("export", help="write recorded episodes in another format (LeRobot dataset)",
+                                 description="Convert the episodes recorded with `robolab eval --record` "
+                                 "(--record-images for camera videos) into another format.")  # fmt: skip
+    formats = export.add_subparsers(dest="export_format", required=True, metavar="FORMAT")
+    lerobot = formats.add_parser(
+        "lerobot", help="a LeRobot dataset, v3.0 layout (meta/, data/ parquet, one mp4 per camera)",
+        description="Write the recordings of RUN_DIR as a LeRobot dataset in LeRobot's v3.0 layout in OUT_DIR (new "
+        "or empty): meta/info.json (fps 15), meta/stats.json, meta/tasks.parquet, meta/episodes/ (with success "
+        "and score), data/ (observation.state = 7 joints + gripper, action, timestamp, next.done, ...) and one "
+        "H.264 video per camera under videos/. Errored episodes are left out. See docs/scaling.md.",
+    )  # fmt: skip
+    lerobot.add_argument("run_dir", metavar="RUN_DIR", help="a results folder written with --record or --record-images")
+    lerobot.add_argument("out_dir", metavar="OUT_DIR", help="the dataset folder to write (new or empty)")
+    lerobot.add_argument("--success-only", action="store_true", help="only the successful episodes")
+    lerobot.add_argument("--task", nargs="+", metavar="TASK", help="only these tasks (default: all recorded)")
+    lerobot.add_argument("--no-videos", action="store_true", help="leave the camera images out")
+    lerobot.set_defaults(run=_cmd_export_lerobot)
+
+
 def _catalog_file(args: argparse.Namespace) -> Path:
     from robolab_ms.content import content_dir
 
@@ -525,6 +558,7 @@ def build_parser() -> argparse.ArgumentParser:
     replay.add_argument("--tolerance", type=float, default=0.0,
                         help="largest state difference still counted as the same (default: 0, bit-identical)")  # fmt: skip
     replay.set_defaults(run=_cmd_replay)
+    _add_export_commands(commands)
 
     serving = commands.add_parser(
         "serve",
