@@ -190,14 +190,15 @@ class SensorEffects:
         if not self.active:
             return rgb
         image = rgb.float()
-        gains = torch.tensor(self.white_balance, dtype=image.dtype, device=image.device) * self.exposure
-        image = image * gains
+        if self.exposure != 1.0 or tuple(self.white_balance) != (1.0, 1.0, 1.0):  # a gain of 1 changes nothing
+            gains = torch.tensor(self.white_balance, dtype=image.dtype, device=image.device) * self.exposure
+            image = image * gains
         if self.blur > 0:
             image = _gaussian_blur(image, self.blur)
         if self.noise > 0:
             generator = torch.Generator(device="cpu").manual_seed((seed * 1_000_003 + step) % (2**63))
-            image = image + torch.randn(image.shape, generator=generator).to(image.device) * self.noise
-        return image.round().clamp(0, 255).to(torch.uint8)
+            image.add_(torch.randn(image.shape, generator=generator).to(image.device).mul_(self.noise))
+        return image.round_().clamp_(0, 255).to(torch.uint8)
 
 
 def _gaussian_blur(image: torch.Tensor, sigma: float) -> torch.Tensor:

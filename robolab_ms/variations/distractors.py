@@ -78,10 +78,10 @@ def task_colours(context: Context) -> set[str]:
     """Catalog colour names a distractor must not take: the task objects' colours and those close to them."""
     from robolab_ms.catalog import COLOR_NAMES
 
-    taken = [COLOR_NAMES[c] for name in task_objects(context.task) for c in context.catalog[_asset(context, name)].colors
-             if c in COLOR_NAMES]  # fmt: skip
+    taken = {c for name in task_objects(context.task) for c in context.catalog[_asset(context, name)].colors}
     return {name for name, rgb in COLOR_NAMES.items()
-            if any(sum((a - b) ** 2 for a, b in zip(rgb, other)) ** 0.5 < SIMILAR_COLOUR for other in taken)}  # fmt: skip
+            if any(sum((a - b) ** 2 for a, b in zip(rgb, COLOR_NAMES[other])) ** 0.5 < SIMILAR_COLOUR
+                   for other in taken if other in COLOR_NAMES)}  # fmt: skip
 
 
 def _asset(context: Context, name: str) -> str:

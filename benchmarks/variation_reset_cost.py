@@ -1,0 +1,75 @@
+"""What domain randomization costs at reset: reset() with every variation axis on against reset() with none, same
+task, same process, with the policy cameras rendering (the first observation is part of a reset).
+
+    .venv/bin/python benchmarks/variation_reset_cost.py [--task RubiksCubeBehindBowl] [--seeds 12]
+
+Both environments rebuild their scene at every reset (the determinism contract), so the variations add no rebuild:
+lights, background, table, distractor looks and camera mounts are chosen while the scene is built, object poses
+and robot joints are set with the state. What they do add once per process is the first use of each environment map
+(a background at a light level): SAPIEN filters it at its first render, seconds on a CPU renderer. The script runs
+the seeds twice with every axis on: the first pass pays those first uses (cold), the second finds them made (warm,
+the steady state of a long run). It prints the mean reset time of each, the ratio warm / none (target <= 1.5) and
+the one-time cost per new environment map.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import gymnasium as gym
+import mani_skill.envs  # noqa: F401  (registers the RoboLab environments)
+
+EVERY_AXIS = "lighting,background,table,camera,objects,robot,noise,distractors"
+
+
+def reset_seconds(env, seeds: range) -> list[float]:
+    times = []
+    for seed in seeds:
+        start = time.perf_counter()
+        env.reset(seed=seed)
+        times.append(time.perf_counter() - start)
+    return times
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--task", default="RubiksCubeBehindBowl")
+    parser.add_argument("--seeds", type=int, default=12)
+    parser.add_argument("--vary", default=EVERY_AXIS)
+    args = parser.parse_args()
+
+    kwargs = dict(obs_mode="rgb", render_backend="cpu")
+    plain = gym.make(f"RoboLab-{args.task}-v1", **kwargs)
+    varied = gym.make(f"RoboLab-{args.task}-v1", variations=args.vary, **kwargs)
+    plain.reset(seed=1000)
+    seeds = range(args.seeds)
+    none_first = reset_seconds(plain, seeds)
+    maps_before = _environment_maps()
+    cold = reset_seconds(varied, seeds)
+    new_maps = _environment_maps() - maps_before
+    none_second = reset_seconds(plain, seeds)
+    warm = reset_seconds(varied, seeds)
+    none_third = reset_seconds(plain, seeds)  # before, between and after: drifting machine load hits both alike
+
+    none = statistics.median([statistics.mean(t) for t in (none_first, none_second, none_third)])
+    cold_mean, warm_mean = statistics.mean(cold), statistics.mean(warm)
+    print(f"reset ({args.task}, rgb, {args.seeds} seeds): no variations {none * 1000:.0f} ms; every axis "
+          f"({args.vary}) warm {warm_mean * 1000:.0f} ms, ratio {warm_mean / none:.2f}x (target <= 1.5)")  # fmt: skip
+    per_map = (sum(cold) - sum(warm)) / max(new_maps, 1)
+    print(f"first pass (cold): {cold_mean * 1000:.0f} ms per reset; {new_maps} environment maps made for the first "
+          f"time, about {per_map:.1f} s each (once per background and light level per process)")  # fmt: skip
+    plain.close()
+    varied.close()
+
+
+def _environment_maps() -> int:
+    """How many environment maps this process has loaded (each is filtered at its first render)."""
+    from robolab_ms.scene.backgrounds import lighting_cubemap
+
+    return lighting_cubemap.cache_info().currsize
+
+
+if __name__ == "__main__":
+    main()
