@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from robolab_ms.catalog.appearance import (
+    box_mesh,
     cylinder_mesh,
     part_look,
     projected_mesh,
@@ -189,7 +190,7 @@ class CatalogObject:
             common = dict(pose=pose, material=material, density=self.density)
             if part.shape == "box":
                 builder.add_box_collision(half_size=list(part.size), **common)
-                builder.add_box_visual(pose=pose, half_size=list(part.size), material=render_material)
+                builder.add_visual_mesh(box_mesh(tuple(part.size)), render_material, pose)  # a whole label per face
             elif part.shape == "sphere":
                 builder.add_sphere_collision(radius=part.size[0], **common)
                 builder.add_sphere_visual(pose=pose, radius=part.size[0], material=render_material)

@@ -337,6 +337,30 @@ def cylinder_mesh(radius: float, half_length: float, segments: int = 32) -> Tria
     return TriangleMesh(np.concatenate(vertices), np.concatenate(triangles), np.concatenate(normals), np.concatenate(uvs))
 
 
+@lru_cache(maxsize=None)
+def box_mesh(half_size: tuple[float, float, float]) -> TriangleMesh:
+    """A box with each face mapped to the whole texture (SAPIEN's box visual maps each face to a part of it)."""
+    vertices, normals, uvs, triangles = [], [], [], []
+    corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            u_axis, v_axis = [(1, 2), (2, 0), (0, 1)][axis]
+            if sign < 0:
+                u_axis, v_axis = v_axis, u_axis  # keep the winding counter-clockwise seen from outside
+            face = np.zeros((4, 3))
+            face[:, axis] = sign * half_size[axis]
+            face[:, u_axis] = (corners[:, 0] * 2 - 1) * half_size[u_axis]
+            face[:, v_axis] = (corners[:, 1] * 2 - 1) * half_size[v_axis]
+            normal = np.zeros(3)
+            normal[axis] = sign
+            start = len(vertices) * 4
+            vertices.append(face)
+            normals.append(np.tile(normal, (4, 1)))
+            uvs.append(np.column_stack([corners[:, 0], 1 - corners[:, 1]]))
+            triangles.append(np.array([[start, start + 1, start + 2], [start, start + 2, start + 3]]))
+    return TriangleMesh(np.concatenate(vertices), np.concatenate(triangles), np.concatenate(normals), np.concatenate(uvs))
+
+
 def plane_mesh(size_x: float, size_y: float, tile: float) -> TriangleMesh:
     """A flat rectangle in the xy plane facing +z, centred at the origin; the texture repeats every `tile` metres."""
     hx, hy = size_x / 2, size_y / 2
