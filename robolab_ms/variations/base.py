@@ -116,11 +116,12 @@ class Param:
             known = list(self.options())
             for name in names:
                 if name not in known:
-                    raise VariationError(f"{where}: '{name}' is not one of the {self.help}. {did_you_mean(name, known)}")
+                    hint = did_you_mean(name, known)
+                    raise VariationError(f"{where}: '{name}' is not one of the {self.help}. {hint}")
             return Choice(names)
         low, high = _numbers(value, where)
         if high is None:
-            low, high = (-abs(low), abs(low)) if self.kind == "offset" else (low, low)
+            low, high = (-abs(low) or 0.0, abs(low)) if self.kind == "offset" else (low, low)
         if low > high:
             raise VariationError(f"{where}: the range {low:g}:{high:g} is empty; write LOW:HIGH with LOW <= HIGH")
         if low < self.low or high > self.high:

@@ -2,7 +2,8 @@
 
 A distractor is a scene object that no success condition or subtask of the task names, as an object or as a
 reference. Its new colour is never one of the task objects' colours nor close to one (within SIMILAR_COLOUR in RGB:
-dark red for red, gold or orange for yellow), so an instruction such as "the red mug" keeps pointing at one object. The new look replaces the texture of every visual part: a generated texture of the drawn
+dark red for red, gold or orange for yellow), so an instruction such as "the red mug" keeps pointing at one object.
+The new look replaces the texture of every visual part: a generated texture of the drawn
 kind in the drawn colour (`own` keeps the object's own kind, or tints a texture image of its own).
 """
 
@@ -71,7 +72,8 @@ class DistractorAxis(Axis):
         for name, actor in builder.objects.items():
             if f"distractor_{name}_color" in fields:
                 entry = context.catalog[_asset(context, name)]
-                restyle(actor, entry, str(fields[f"distractor_{name}_color"]), str(fields[f"distractor_{name}_texture"]))
+                colour, texture = fields[f"distractor_{name}_color"], fields[f"distractor_{name}_texture"]
+                restyle(actor, entry, str(colour), str(texture))
 
 
 def task_colours(context: Context) -> set[str]:

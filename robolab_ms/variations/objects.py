@@ -163,7 +163,8 @@ def _place_group(group: tuple[str, ...], bodies: dict[str, _Body], rng: np.rando
     for _ in range(RETRIES):
         dx, dy, dyaw = xy.draw(rng), xy.draw(rng), yaw_range.draw(rng)
         x, y = x0 + dx, y0 + dy
-        if not (SAFE_PLACEMENT["x"][0] <= x <= SAFE_PLACEMENT["x"][1] and SAFE_PLACEMENT["y"][0] <= y <= SAFE_PLACEMENT["y"][1]):
+        (x_low, x_high), (y_low, y_high) = SAFE_PLACEMENT["x"], SAFE_PLACEMENT["y"]
+        if not (x_low <= x <= x_high and y_low <= y <= y_high):
             continue
         if math.hypot(x, y) > REACH:
             continue

@@ -80,7 +80,8 @@ def _resolve(axis: Axis, items: list[_Item]) -> dict[str, Range]:
         if item.value is None and item.param is None:
             continue
         if item.param is not None:
-            ranges[item.param] = axis.param(item.param, f"--vary '{item.text}'").parse(item.value, f"--vary '{item.text}'")
+            where = f"--vary '{item.text}'"
+            ranges[item.param] = axis.param(item.param, where).parse(item.value, where)
             continue
         if isinstance(item.value, str) and item.value in axis.presets:
             for name, value in axis.presets[item.value].items():

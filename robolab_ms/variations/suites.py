@@ -59,8 +59,8 @@ def suite_conditions(argument: str) -> tuple[Suite, dict[str, str]]:
     wanted = [c.strip() for c in chosen.split("/") if c.strip()]
     for condition in wanted:
         if condition not in suite.conditions:
-            raise VariationError(f"--suite {argument}: unknown condition '{condition}' of suite {name} (its conditions: "
-                                 f"{', '.join(suite.conditions)})")  # fmt: skip
+            raise VariationError(f"--suite {argument}: unknown condition '{condition}' of suite {name} (its "
+                                 f"conditions: {', '.join(suite.conditions)})")  # fmt: skip
     return suite, {c: text for c, text in suite.conditions.items() if c in wanted}
 
 
@@ -89,7 +89,8 @@ def suite_summary(out_dir: Path, suite: Suite, conditions: list[str], policy: st
                          "task": task, "episodes": len(group),
                          "success_%": round(100 * successes / len(group), 1) if group else float("nan"),
                          "success_ci95_low_%": round(100 * low, 1), "success_ci95_high_%": round(100 * high, 1),
-                         "score": round(sum(r.score for r in group) / len(group), 3) if group else float("nan")})  # fmt: skip
+                         "score": round(sum(r.score for r in group) / len(group), 3) if group else float("nan"),
+                         })  # fmt: skip
     table = pd.DataFrame(rows)
     table.to_csv(out_dir / SUITE_CSV, index=False)
     parts = [f"# Suite {suite.name} ({policy})\n", f"{suite.description}.\n", "## Success % [95 % interval]\n"]
