@@ -414,6 +414,18 @@ class _ProcessPool:
         threads = max(1, (os.cpu_count() or 1) // count)
         self.out_dir = out_dir
         self.processes, self.connections = [], []
+        saved = os.environ.get("OMP_NUM_THREADS")
+        if saved is None:  # OpenMP / BLAS threads per worker, as Ray gives its actors (a worker imports numpy first)
+            os.environ["OMP_NUM_THREADS"] = str(threads)
+        try:
+            self._start(count, context, policy, config, out_dir, roots, threads)
+        finally:
+            if saved is None:
+                os.environ.pop("OMP_NUM_THREADS", None)
+        self.size = count
+
+    def _start(self, count: int, context: Any, policy: PolicySpec, config: EvalConfig, out_dir: Path,
+               roots: list[str], threads: int) -> None:  # fmt: skip
         for index in range(count):
             parent_end, child_end = context.Pipe()
             process = context.Process(target=_worker_main, name=f"robolab-worker-{index}", daemon=True,
@@ -422,7 +434,6 @@ class _ProcessPool:
             child_end.close()
             self.processes.append(process)
             self.connections.append(parent_end)
-        self.size = count
 
     def submit(self, index: int, job: Job) -> None:
         self.connections[index].send(job)
