@@ -242,7 +242,7 @@ def make_texture(kind: str, rgb: tuple[float, float, float], face: int = 0) -> n
         strength = {"skin": 0.22, "plant": 0.25, "baked": 0.35}[kind]
         image = _shade(rgb, mottle * strength + pores)
         if kind == "skin":  # a faint second hue, as on apples and citrus
-            blush = np.clip(noise(n, 3, rng, 2) - 0.55, 0, 1)[..., None] * 0.5
+            blush = np.clip(noise(n, 3, rng, 2) - 0.6, 0, 1)[..., None] * 0.3
             image = image * (1 - blush) + image * np.array([1.05, 0.85, 0.7]) * blush
         return _to_srgb(image)
     if kind == "banana":

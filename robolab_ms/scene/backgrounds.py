@@ -162,14 +162,22 @@ def load_looks() -> Looks:
 
 
 LIGHTING_MAP_WIDTH = 128  # px: the lighting map is downsampled to this width
-ENVIRONMENT_BRIGHTNESS = 0.7  # mean luminance the lighting environment map is scaled to (before `light` factors)
+ENVIRONMENT_BRIGHTNESS = 0.5  # mean luminance the lighting environment map is scaled to (before `light` factors)
+
+
+WHITE_BALANCE = 0.75  # how far the maps' average colour is pulled to grey, as a camera's automatic white balance
 
 
 def _read_hdr(background: Background) -> np.ndarray:
+    """The background's HDR map (H, W, 3), white-balanced: each channel scaled so the average colour moves
+    WHITE_BALANCE of the way to grey (grey world), as DROID's cameras balance a room's light."""
     import sapien
 
     hdr = sapien.render.RenderTexture2D(str(background.path()), srgb=False).download()[..., :3].astype(np.float32)
-    return np.nan_to_num(np.clip(hdr, 0.0, 1e4), nan=0.0)
+    hdr = np.nan_to_num(np.clip(hdr, 0.0, 1e4), nan=0.0)
+    means = hdr.reshape(-1, 3).mean(axis=0)
+    gains = (means.mean() / np.maximum(means, 1e-6)) ** WHITE_BALANCE
+    return hdr * gains.astype(np.float32)
 
 
 def _cache_dir() -> Path:
@@ -199,7 +207,8 @@ def lighting_map(name: str, light: float = 1.0) -> Path:
     """The background's HDR map scaled so its mean luminance is ENVIRONMENT_BRIGHTNESS x `light`: the same room
     lights every scene about equally (the key light adds shadows). Written once into the cache folder."""
     background = load_looks().background(name)
-    target = _cache_dir() / "hdri" / f"{Path(background.file).stem}_{LIGHTING_MAP_WIDTH}_{ENVIRONMENT_BRIGHTNESS * light:.4f}.hdr"
+    stem = f"{Path(background.file).stem}_{LIGHTING_MAP_WIDTH}_{WHITE_BALANCE}_{ENVIRONMENT_BRIGHTNESS * light:.4f}"
+    target = _cache_dir() / "hdri" / f"{stem}.hdr"
     if not target.is_file():
         hdr = _read_hdr(background)
         factor = max(1, hdr.shape[1] // LIGHTING_MAP_WIDTH)  # a small map: SAPIEN filters it on every scene build

@@ -32,7 +32,7 @@ ROOM_RADIUS = 7.0  # m: half the floor's size; the panorama sphere is just outsi
 PANORAMA_EYE_HEIGHT = 1.5  # m above the floor: where the panorama's camera stood
 AMBIENT_LIGHT = (0.0, 0.0, 0.0)
 KEY_LIGHT_DIRECTION = (-0.45, -0.25, -1.0)  # from above, in front of the robot and to its left
-KEY_LIGHT_COLOR = (0.7, 0.67, 0.62)  # a warm white
+KEY_LIGHT_COLOR = (0.56, 0.6, 0.66)  # slightly cool: with the warm room the white balance comes out near neutral
 SHADOW_HALF_SIZE = 1.0  # m: the key light's shadow covers the table and the robot
 SHADOW_MAP_SIZE = 1024
 
