@@ -58,15 +58,32 @@ def test_resting_height_puts_the_lowest_turned_point_on_the_table():
 
 
 def test_lying_mug_rests_on_its_side_on_the_table():
-    import gymnasium as gym
+    from helpers import FIXTURES
 
-    env = gym.make("RoboLab-ReorientRedMug-v1", obs_mode="state_dict", render_backend="cpu")
+    from robolab_ms.envs import RoboLabEnv
+
+    env = RoboLabEnv(task=str(FIXTURES / "LyingMug.yaml"), obs_mode="state_dict", render_backend="cpu")
     try:
         env.reset(seed=0)
         ctx = env.unwrapped.eval_context
         ctx.refresh()
         up = ctx.rotation("red_mug")[0, :, 2]
         assert abs(float(up[2])) < 0.05  # its axis lies flat
+        points = ctx.entries["red_mug"].points @ ctx.rotation("red_mug")[0].numpy().T + ctx.position("red_mug")[0].numpy()
+        assert 0.0 <= points[:, 2].min() <= 0.004
+    finally:
+        env.close()
+
+
+def test_upside_down_mug_rests_on_its_rim():
+    import gymnasium as gym
+
+    env = gym.make("RoboLab-ReorientRedMug-v1", obs_mode="state_dict", render_backend="cpu")  # as in RoboLab's scene
+    try:
+        env.reset(seed=0)
+        ctx = env.unwrapped.eval_context
+        ctx.refresh()
+        assert float(ctx.rotation("red_mug")[0, 2, 2]) < -0.95  # its axis points down
         points = ctx.entries["red_mug"].points @ ctx.rotation("red_mug")[0].numpy().T + ctx.position("red_mug")[0].numpy()
         assert 0.0 <= points[:, 2].min() <= 0.004
     finally:
