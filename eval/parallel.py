@@ -165,11 +165,16 @@ def _die_with_parent(parent_pid: int) -> None:
         os._exit(1)
 
 
+def _exit_on_sigterm(signum: int, frame: Any) -> None:
+    raise SystemExit(128 + signum)
+
+
 def _worker_main(conn: Any, policy: PolicySpec, config: EvalConfig, out_dir: str, content_roots: list[str],
                  parent_pid: int, threads: int) -> None:  # fmt: skip
     """A worker process: receive jobs, send ("result", result) or ("fatal", ...) back, until None arrives."""
     _die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent stops the workers
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)  # the parent's stop: leave through `finally`, cleaning up
     import torch
 
     torch.set_num_threads(threads)
@@ -181,7 +186,7 @@ def _worker_main(conn: Any, policy: PolicySpec, config: EvalConfig, out_dir: str
             if job is None:
                 break
             conn.send(("result", worker.run(job), None))
-    except EOFError:  # the parent is gone
+    except (EOFError, SystemExit):  # the parent is gone, or stops this worker
         pass
     except BaseException as exc:
         if not isinstance(exc, RoboLabError):
