@@ -9,7 +9,7 @@ import torch
 
 from robolab_ms.catalog import load_catalog
 from robolab_ms.catalog.appearance import SURFACES, make_texture, part_look
-from robolab_ms.envs.cameras import RENDER_QUALITIES, SensorEffects, check_render_quality
+from robolab_ms.envs.cameras import RENDER_QUALITIES, SensorEffects, check_render_quality, shader_config
 from robolab_ms.errors import RoboLabError
 from robolab_ms.fidelity import TEXTURED_TARGET, _fidelity_env_class, fidelity_report, measure_scene
 from robolab_ms.scene import load_scene, scene_names
@@ -109,6 +109,9 @@ def test_bad_settings_are_refused():
     with pytest.raises(RoboLabError, match="render quality"):
         check_render_quality("ultra")
     assert RENDER_QUALITIES == ("fast", "high")
+    assert shader_config("fast").shader_pack == "minimal"
+    high = shader_config("high")
+    assert high.shader_pack == "rt" and high.shader_pack_config["ray_tracing_denoiser"] == "oidn"
 
 
 def test_env_applies_sensor_effects():
