@@ -174,13 +174,13 @@ def _worker_main(conn: Any, policy: PolicySpec, config: EvalConfig, out_dir: str
     """A worker process: receive jobs, send ("result", result) or ("fatal", ...) back, until None arrives."""
     _die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent stops the workers
-    signal.signal(signal.SIGTERM, _exit_on_sigterm)  # the parent's stop: leave through `finally`, cleaning up
     import torch
 
     torch.set_num_threads(threads)
     worker = None
     try:
         worker = EpisodeWorker(policy, config, Path(out_dir), content_roots)
+        signal.signal(signal.SIGTERM, _exit_on_sigterm)  # the parent's stop: leave through `finally`, cleaning up
         while True:
             job = conn.recv()
             if job is None:

@@ -125,6 +125,19 @@ def test_ray_actors_on_a_local_instance_stream_results_and_recordings_back(tmp_p
     assert not list(out.rglob("*.partial"))
 
 
+def test_a_worker_that_cannot_reach_its_policy_server_stops_the_run_with_the_one_line_error(tmp_path):
+    from servers import free_port
+
+    port = free_port()  # nothing listens there
+    run = subprocess.run([ROBOLAB, "eval", "--policy", "openpi", "--port", str(port), "--task", TASKS[0], "--episodes",
+                          "2", "--workers", "2", "--out", str(tmp_path), "--quiet"], capture_output=True, text=True,
+                         timeout=600)  # fmt: skip
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert run.stderr.startswith(f"robolab: error: no openpi policy server answers at 127.0.0.1:{port}")
+    assert "Traceback" not in run.stderr
+    assert not (tmp_path / EPISODES_FILE).exists()
+
+
 def test_a_second_run_on_the_same_folder_is_refused_until_the_first_ends(tmp_path):
     with exclusive_writer(tmp_path):
         with pytest.raises(RoboLabError, match="is being written by robolab eval"):
