@@ -9,9 +9,9 @@ run (worker start-up and Ray's start included) and in steady state (workers / me
 against --workers 1.
 Targets (issue 20): at least 1.7x with 2 workers on a 2-core machine, Ray within 10 % of --workers 2. The numbers
 are only meaningful on an otherwise idle machine: other processes take cores from the workers, and Linux's
-per-session fair share (autogroup) caps the worker processes of a run at one session's share of a busy machine
-while Ray's processes, each in a session of its own, get more. The script prints how many cores this session gets
-with two processes before and after, the ceiling of the speed-up it can measure.
+per-session fair share (autogroup) caps all processes of a run (Ray's included) at one session's share of a busy
+machine. The script prints how many cores this session gets with two processes before and after: the ceiling of the
+speed-up it can measure.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def available_parallelism(processes: int = 2) -> float:
     """How many cores this session gets right now: a pure-Python loop alone, then `processes` copies at once.
 
     Linux gives each session (autogroup) a fair share of a busy machine, so on a shared machine the workers of one
-    run may get no more CPU than one process; Ray's processes run in sessions of their own and are not capped so."""
+    run may get no more CPU than one process."""
     import subprocess
     import sys
 
