@@ -4,7 +4,8 @@ Objects are moved one group at a time in scene order; a group is an object and, 
 outline holds at the layout (they move and turn with it). A candidate pose of a group is kept only when
 - every member's outline (the convex hull of its collision points seen from above) lies on the table, 1 cm from
   its edge;
-- the group's centre is where scene files may place objects and within the arm's reach (0.85 m from the base);
+- the group's centre is where scene files may place objects and within the arm's comfortable reach (0.8 m from the
+  base, or as far as the layout already puts it: the oracle must still carry objects over a bin's walls there);
 - its outline keeps 1 cm from every other object's outline (separating axes, exact for the convex outlines: the
   bounding circles RoboLab uses waste space around long objects).
 A group that finds no such pose in 100 tries keeps the scene's own (jittered) pose, which every other group was
@@ -27,7 +28,7 @@ from robolab_ms.variations.base import Axis, Context, FieldValue, Names, Param, 
 RETRIES = 100  # candidate poses per group (RoboLab's number)
 SOLVED_ATTEMPTS = 10  # whole drawings tried before the scene's own poses are kept
 MARGIN = 0.01  # m: between outlines, and to the table's edge
-REACH = 0.85  # m: largest horizontal distance of an object's centre from the robot base
+REACH = 0.8  # m: largest horizontal distance of a group's centre from the robot base (unless its layout is further)
 
 
 @dataclass
@@ -160,13 +161,14 @@ def _place_group(group: tuple[str, ...], bodies: dict[str, _Body], rng: np.rando
     lows = [o.min(axis=0) for o in others]
     highs = [o.max(axis=0) for o in others]
     xy, yaw_range = ranges["xy"], ranges["yaw"]
+    reach = max(REACH, math.hypot(x0, y0))
     for _ in range(RETRIES):
         dx, dy, dyaw = xy.draw(rng), xy.draw(rng), yaw_range.draw(rng)
         x, y = x0 + dx, y0 + dy
         (x_low, x_high), (y_low, y_high) = SAFE_PLACEMENT["x"], SAFE_PLACEMENT["y"]
         if not (x_low <= x <= x_high and y_low <= y <= y_high):
             continue
-        if math.hypot(x, y) > REACH:
+        if math.hypot(x, y) > reach:
             continue
         poses = {name: _moved(bodies[name], (x0, y0), dx, dy, dyaw) for name in group}
         outlines = [bodies[name].outline(*poses[name]) for name in group]
