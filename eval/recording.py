@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from robolab_ms.eval.metrics import event_tallies, trajectory_metrics
+from robolab_ms.eval.results import to_json_value
 
 RECORDINGS_DIR = "recordings"
 VIDEOS_DIR = "videos"
@@ -104,18 +105,6 @@ def _flat_state(state: dict) -> dict[str, np.ndarray]:
         else:
             flat[key] = _numpy(value)[0]
     return flat
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float) and math.isnan(value):
-        return None
-    return value
 
 
 class EpisodeRecorder:
@@ -279,7 +268,7 @@ class EpisodeRecorder:
         os.replace(self._partial, path)
         json_path = path.with_suffix(".json")
         partial_json = json_path.with_name(json_path.name + ".partial")
-        partial_json.write_text(json.dumps(_jsonable(self._metadata(info, events, error)), indent=2), encoding="utf-8")
+        partial_json.write_text(json.dumps(to_json_value(self._metadata(info, events, error)), indent=2), encoding="utf-8")
         os.replace(partial_json, json_path)
 
     def _metadata(self, info: dict, events: list, error: str | None) -> dict[str, Any]:

@@ -16,6 +16,8 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from robolab_ms.errors import RoboLabError
 
 EPISODES_FILE = "episodes.jsonl"
@@ -133,3 +135,23 @@ def read_results(out_dir: Path) -> list[EpisodeResult]:
             continue
         results[result.key()] = result
     return list(results.values())
+
+
+def to_json_value(value: Any) -> Any:
+    """A value as JSON can hold it: mappings and sequences walked, numpy arrays and scalars to Python, bytes to text,
+    NaN to null, anything else unknown to its text."""
+    if isinstance(value, dict):
+        return {str(key): to_json_value(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_json_value(item) for item in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, float) and value != value:
+        return None
+    if value is None or isinstance(value, (str, int, float, bool)):
+        return value
+    return str(value)

@@ -18,7 +18,9 @@ from tqdm import tqdm
 
 from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.recording import EpisodeRecorder, RecordOptions
-from robolab_ms.eval.results import EpisodeResult, append_result, episode_key, exclusive_writer, read_results
+from robolab_ms.eval.results import (
+    EpisodeResult, append_result, episode_key, exclusive_writer, read_results, to_json_value,
+)
 from robolab_ms.policies import EpisodeInfo, Policy, PolicyReplyError, PolicyUnavailableError
 
 MANIFEST_FILE = "manifest.json"
@@ -182,7 +184,7 @@ class _PolicyStats:
         query = np.asarray(self.query_ms)
         return {
             "endpoint": policy.endpoint,
-            "policy_metadata": _jsonable(policy.metadata()),
+            "policy_metadata": to_json_value(policy.metadata()),
             "queries": len(query),
             "inference_ms_mean": round(float(query.mean()), 3) if len(query) else None,
             "inference_ms_p95": round(float(np.percentile(query, 95)), 3) if len(query) else None,
@@ -190,23 +192,6 @@ class _PolicyStats:
             "steps_per_second": round(steps / wall_seconds, 3) if wall_seconds > 0 else None,
             "clipped_steps": self.clipped_steps,
         }
-
-
-def _jsonable(value: Any) -> Any:
-    """Server metadata as JSON values (arrays to lists, anything else unknown to its text)."""
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, bytes):
-        return value.decode("utf-8", "replace")
-    if value is None or isinstance(value, (str, int, float, bool)):
-        return value
-    return str(value)
 
 
 def _reconnect(policy: Policy, seconds: float, out_dir: Path) -> None:
