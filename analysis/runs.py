@@ -1,0 +1,120 @@
+"""Episodes of one or more results folders as one table, with what each task asks of a policy.
+
+`load_runs` is the single entry point of the analysis commands (`robolab analyze`, `sensitivity`, `leaderboard`):
+one row per episode, the columns of `tables.episode_frame` (outcome, metrics in table units, event counts, drawn
+variation parameters) plus:
+
+| column | what |
+|---|---|
+| `run` | the results folder the episode came from (its name; the path where names repeat) |
+| `scene`, `attributes`, `axes` | the task's scene, its attributes and competency axes (`;`-separated, sorted) |
+| `difficulty`, `difficulty_score`, `num_subtasks` | RoboLab's difficulty label and rating (subtasks + skill weight) |
+| `num_objects` | bodies in the task's scene (targets and distractors) |
+| `episode_seconds` | the task's time limit |
+| `time_to_success_s` | seconds until success (`success_step` / 15 Hz); NaN for failures |
+
+Task columns come from the task files known now (shipped, `$ROBOLAB_CONTENT`, `--content`); a task that no file
+describes keeps them empty and is named in `RunSet.unknown_tasks`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from robolab_ms.analysis.tables import episode_frame
+from robolab_ms.errors import RoboLabError
+from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, read_results
+
+CONTROL_HZ = 15.0
+TASK_COLUMNS = ("scene", "attributes", "axes", "difficulty", "difficulty_score", "num_subtasks", "num_objects",
+                "episode_seconds")  # fmt: skip
+DIFFICULTY_ORDER = ("simple", "moderate", "complex")
+
+
+@dataclass
+class RunSet:
+    """Episodes of several results folders: `episodes` has one row per episode (columns in the module docstring)."""
+
+    episodes: pd.DataFrame
+    folders: list[Path]
+    unknown_tasks: list[str] = field(default_factory=list)
+
+    @property
+    def policies(self) -> list[str]:
+        return sorted(self.episodes["policy"].unique()) if len(self.episodes) else []
+
+
+def task_table(tasks: Iterable[str] | None = None) -> pd.DataFrame:
+    """One row per known task (index: task name) with the task columns of the module docstring. `tasks` limits
+    the rows to those names; names no task file describes are left out."""
+    from robolab_ms.tasks.spec import load_all_tasks
+
+    wanted = None if tasks is None else set(tasks)
+    rows = []
+    for spec in load_all_tasks():
+        if wanted is not None and spec.name not in wanted:
+            continue
+        rows.append({
+            "task": spec.name,
+            "scene": spec.scene.name,
+            "attributes": ";".join(sorted(spec.attributes)),
+            "axes": ";".join(spec.axes),
+            "difficulty": spec.difficulty,
+            "difficulty_score": spec.difficulty_score,
+            "num_subtasks": spec.num_subtasks,
+            "num_objects": len(spec.scene.objects),
+            "episode_seconds": spec.episode_seconds,
+        })  # fmt: skip
+    return pd.DataFrame(rows, columns=["task", *TASK_COLUMNS]).set_index("task")
+
+
+def load_runs(folders: Sequence[str | Path], task_info: pd.DataFrame | None = None) -> RunSet:
+    """Every complete episode of `folders` (results folders of `robolab eval`), one row each, with task columns.
+
+    `task_info` (index: task name, columns as `task_table`) replaces the task files as the source of the task
+    columns, e.g. for results of tasks defined elsewhere. An episode present in two folders (same task, variant,
+    robot, policy and seed) counts once, from the folder given last."""
+    paths = [Path(folder) for folder in folders]
+    if not paths:
+        raise RoboLabError("no results folder given: name one or more folders written by `robolab eval --out DIR`")
+    results: dict[tuple, tuple[str, EpisodeResult]] = {}
+    labels = _run_labels(paths)
+    for path, label in zip(paths, labels):
+        if not path.is_dir():
+            raise RoboLabError(f"{path}: no such folder; give a folder written by `robolab eval --out DIR`")
+        if not (path / EPISODES_FILE).exists():
+            raise RoboLabError(f"{path}: no {EPISODES_FILE} in it; is it a results folder of `robolab eval`?")
+        for result in read_results(path):
+            results[result.key()] = (label, result)
+    if not results:
+        raise RoboLabError(f"no complete episode in {', '.join(str(p) for p in paths)}; run `robolab eval` first")
+    episodes = episode_frame([result for _, result in results.values()])
+    episodes.insert(0, "run", [label for label, _ in results.values()])
+    names = sorted(episodes["task"].unique())
+    if task_info is None:
+        task_info = task_table(names)
+    unknown = [name for name in names if name not in task_info.index]
+    if unknown:
+        warnings.warn(f"no task file describes {', '.join(unknown)}: their scene, attributes and difficulty stay "
+                      "empty (pass --content DIR with their task files)", stacklevel=2)  # fmt: skip
+    episodes = episodes.join(task_info.reindex(columns=list(TASK_COLUMNS)), on="task")
+    episodes["time_to_success_s"] = pd.to_numeric(episodes["success_step"], errors="coerce") / CONTROL_HZ
+    return RunSet(episodes=episodes.reset_index(drop=True), folders=paths, unknown_tasks=unknown)
+
+
+def _run_labels(paths: list[Path]) -> list[str]:
+    """The folder names, or the paths as given where two folders share a name."""
+    names = [path.resolve().name for path in paths]
+    return [name if names.count(name) == 1 else str(path) for name, path in zip(names, paths)]
+
+
+def explode_column(episodes: pd.DataFrame, column: str) -> pd.DataFrame:
+    """One row per (episode, value) of a `;`-separated column such as `attributes` or `axes`: an episode of a task
+    with two attributes counts once under each."""
+    split = episodes.assign(**{column: episodes[column].fillna("").str.split(";")}).explode(column)
+    return split[split[column] != ""]
