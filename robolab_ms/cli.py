@@ -612,17 +612,16 @@ def build_parser() -> argparse.ArgumentParser:
     fidelity.add_arguments(render_check)
     render_check.set_defaults(run=fidelity.run)
 
-    from robolab_ms.analysis import analyze
+    from robolab_ms.analysis import leaderboard
 
-    analyzing = commands.add_parser(
-        "analyze", parents=[content], help="tables, plots and paired comparisons of results folders",
-        description="Success (95 % Beta interval), Score, Score(fail), time to success, SPARC, path length, speed "
-        "and event rates per policy, by task, competency axis, attribute, difficulty, scene, instruction variant, "
-        "number of objects, episode length, wrong objects grasped or any recorded field; --compare A B: paired "
-        "comparison on matched episodes (exact McNemar per task, bootstrap over tasks). See docs/analysis.md.",
+    ranking = commands.add_parser(
+        "leaderboard", parents=[content], help="write a static leaderboard site (HTML + Markdown) from results",
+        description="Rank the policies of the results folders by overall success (95 % Beta interval; ties by "
+        "score) with columns per competency axis and difficulty, one page per task with videos, a Markdown copy, "
+        "and with --real-world the sim-to-real correlation. Open SITE_DIR/index.html; no server needed.",
     )  # fmt: skip
-    analyze.add_arguments(analyzing)
-    analyzing.set_defaults(run=analyze.run)
+    leaderboard.add_arguments(ranking)
+    ranking.set_defaults(run=leaderboard.run)
     return parser
 
 
