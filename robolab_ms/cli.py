@@ -612,6 +612,18 @@ def build_parser() -> argparse.ArgumentParser:
     fidelity.add_arguments(render_check)
     render_check.set_defaults(run=fidelity.run)
 
+    from robolab_ms.analysis import analyze
+
+    analyzing = commands.add_parser(
+        "analyze", parents=[content], help="tables, plots and paired comparisons of results folders",
+        description="Success (95 % Beta interval), Score, Score(fail), time to success, SPARC, path length, speed "
+        "and event rates per policy, by task, competency axis, attribute, difficulty, scene, instruction variant, "
+        "number of objects, episode length, wrong objects grasped or any recorded field; --compare A B: paired "
+        "comparison on matched episodes (exact McNemar per task, bootstrap over tasks). See docs/analysis.md.",
+    )  # fmt: skip
+    analyze.add_arguments(analyzing)
+    analyzing.set_defaults(run=analyze.run)
+
     from robolab_ms.analysis import leaderboard
 
     ranking = commands.add_parser(
