@@ -169,9 +169,10 @@ def _exit_on_sigterm(signum: int, frame: Any) -> None:
     raise SystemExit(128 + signum)
 
 
-def _worker_main(conn: Any, policy: PolicySpec, config: EvalConfig, out_dir: str, content_roots: list[str],
-                 parent_pid: int, threads: int) -> None:  # fmt: skip
-    """A worker process: receive jobs, send ("result", result) or ("fatal", ...) back, until None arrives."""
+def _worker_main(conn: Any, policy: PolicySpec | None, config: EvalConfig, out_dir: str, content_roots: list[str],
+                 parent_pid: int, threads: int, worker_class: type = EpisodeWorker) -> None:  # fmt: skip
+    """A worker process: receive jobs, send ("result", result) or ("fatal", ...) back, until None arrives.
+    `worker_class` runs the jobs: EpisodeWorker, or another class made and used the same way (`robolab validate`'s)."""
     _die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent stops the workers
     import torch
@@ -179,7 +180,7 @@ def _worker_main(conn: Any, policy: PolicySpec, config: EvalConfig, out_dir: str
     torch.set_num_threads(threads)
     worker = None
     try:
-        worker = EpisodeWorker(policy, config, Path(out_dir), content_roots)
+        worker = worker_class(policy, config, Path(out_dir), content_roots)
         signal.signal(signal.SIGTERM, _exit_on_sigterm)  # the parent's stop: leave through `finally`, cleaning up
         while True:
             job = conn.recv()
@@ -407,9 +408,11 @@ def _raise_fatal(message: tuple, where: str, out_dir: Path) -> None:
 
 
 class _ProcessPool:
-    """N worker processes on this machine, started with `spawn` (a fresh interpreter each), one pipe each."""
+    """N worker processes on this machine, started with `spawn` (a fresh interpreter each), one pipe each; each
+    runs its jobs with a `worker_class(policy, config, out_dir, content_roots)` (EpisodeWorker: eval's episodes)."""
 
-    def __init__(self, count: int, policy: PolicySpec, config: EvalConfig, out_dir: Path) -> None:
+    def __init__(self, count: int, policy: PolicySpec | None, config: EvalConfig, out_dir: Path,
+                 worker_class: type = EpisodeWorker) -> None:  # fmt: skip
         import multiprocessing
 
         from robolab_ms.content import user_content_roots
@@ -423,18 +426,19 @@ class _ProcessPool:
         if saved is None:  # OpenMP / BLAS threads per worker, as Ray gives its actors (a worker imports numpy first)
             os.environ["OMP_NUM_THREADS"] = str(threads)
         try:
-            self._start(count, context, policy, config, out_dir, roots, threads)
+            self._start(count, context, policy, config, out_dir, roots, threads, worker_class)
         finally:
             if saved is None:
                 os.environ.pop("OMP_NUM_THREADS", None)
         self.size = count
 
-    def _start(self, count: int, context: Any, policy: PolicySpec, config: EvalConfig, out_dir: Path,
-               roots: list[str], threads: int) -> None:  # fmt: skip
+    def _start(self, count: int, context: Any, policy: PolicySpec | None, config: EvalConfig, out_dir: Path,
+               roots: list[str], threads: int, worker_class: type) -> None:  # fmt: skip
         for index in range(count):
             parent_end, child_end = context.Pipe()
             process = context.Process(target=_worker_main, name=f"robolab-worker-{index}", daemon=True,
-                                      args=(child_end, policy, config, str(out_dir), roots, os.getpid(), threads))  # fmt: skip
+                                      args=(child_end, policy, config, str(out_dir), roots, os.getpid(), threads,
+                                            worker_class))  # fmt: skip
             process.start()
             child_end.close()
             self.processes.append(process)

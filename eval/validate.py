@@ -6,6 +6,8 @@ Per task over N seeds:
 - random policy: its success rate (expected near 0; above 10 % the task is too easy to pass by flailing);
 - oracle: its success rate (at least 90 %) and time per episode.
 Episodes of both policies go through the evaluation runner, into OUT/episodes.jsonl, so a rerun resumes.
+`validate_task` checks one task in this process; `validate_parallel` (`--workers N`) hands the rest checks and the
+episodes of all tasks to eval's worker processes and alone writes the folder, with the same rows and episodes.
 
 When the oracle fails an episode without raising (it runs out of time), `explain_failure` says why, from what an
 `EpisodeWatch` saw during that episode (which target objects the fingers touched, when and how each contact ended,
@@ -22,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from robolab_ms.eval.results import EpisodeResult
+from robolab_ms.errors import RoboLabError
+from robolab_ms.eval.results import EpisodeResult, append_result, episode_key
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 
 STABILITY_PHYSICS_STEPS = 300
@@ -263,29 +266,33 @@ def group_explanations(explained: list[tuple[int, str]]) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ one task
-def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True,
-                  variations: str | None = None) -> TaskValidation:  # fmt: skip
-    """Run every check on one task (a name or a task file), under `variations` if given; episodes go to `out_dir`."""
-    from robolab_ms.envs import register_task_file
-    from robolab_ms.policies import make_policy
-    from robolab_ms.tasks.spec import load_task
+def validation_config(task_files: tuple[str, ...], seeds: int, first_seed: int, variations: str | None) -> EvalConfig:
+    """The evaluation settings of the random and the oracle episodes of a validation run."""
+    from robolab_ms.agents import DEFAULT_ROBOT
 
-    spec = load_task(task)
-    register_task_file(spec.file, replace=True)  # the id loads exactly this file in this process
-    seed_range = range(first_seed, first_seed + seeds)
-    drift, solved_at_reset = check_rest(str(spec.file), seed_range, variations)
-    config = EvalConfig(tasks=(str(spec.file),), episodes=seeds, first_seed=first_seed, variations=variations)
-    random_results = run_evaluation(make_policy("random"), config, out_dir, show_progress)
-    oracle = WatchedPolicy(make_policy("oracle"))
-    oracle_results = run_evaluation(oracle, config, out_dir, show_progress)
-    oracle_results = [r for r in oracle_results if r.task == spec.name]
-    random_results = [r for r in random_results if r.task == spec.name]
+    return EvalConfig(tasks=task_files, episodes=seeds, first_seed=first_seed, robot=DEFAULT_ROBOT,
+                      variations=variations)  # fmt: skip
+
+
+def task_row(spec: Any, seeds: range, rest: tuple[float, int], results: list[EpisodeResult],
+             watches: dict[int, EpisodeWatch]) -> TaskValidation:  # fmt: skip
+    """One task's row from its rest check (largest drift in m, seeds solved at reset), the random and oracle episodes
+    of its seeds among `results`, and the watches of the oracle episodes run now (those resumed have none)."""
+    from robolab_ms.agents import DEFAULT_ROBOT
+
+    drift, solved_at_reset = rest
+    by_key = {r.key(): r for r in results}
+
+    def episodes(policy: str) -> list[EpisodeResult]:
+        keys = (episode_key(spec.name, "default", DEFAULT_ROBOT, policy, seed) for seed in seeds)  # default instruction
+        return [by_key[key] for key in keys if key in by_key]
+
+    random_results, oracle_results = episodes("random"), episodes("oracle")
     random_rate = float(np.mean([r.success for r in random_results]))
     oracle_rate = float(np.mean([r.success for r in oracle_results]))
     errors = sorted({r.error for r in oracle_results if r.error})
-    failed = sorted((r for r in oracle_results if not r.success and not r.error and r.seed in seed_range),
-                    key=lambda r: r.seed)  # fmt: skip
-    failures = group_explanations([(r.seed, explain_failure(r, oracle.watches.get(r.seed), spec)) for r in failed])
+    failed = [r for r in oracle_results if not r.success and not r.error]
+    failures = group_explanations([(r.seed, explain_failure(r, watches.get(r.seed), spec)) for r in failed])
     problems = []
     if drift > MAX_DRIFT_M:
         problems.append(f"an object drifts {drift * 100:.1f} cm at rest (max {MAX_DRIFT_M * 100:.0f})")
@@ -297,7 +304,7 @@ def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, sho
         problems.append(f"oracle succeeds only {oracle_rate:.0%} (min {MIN_ORACLE_SUCCESS:.0%})")
     return TaskValidation(
         task=spec.name,
-        seeds=seeds,
+        seeds=len(seeds),
         max_drift_cm=round(drift * 100, 2),
         success_at_reset=solved_at_reset,
         random_success=round(random_rate, 3),
@@ -308,6 +315,174 @@ def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, sho
         passed=not problems,
         problems="; ".join(problems),
     )
+
+
+def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True,
+                  variations: str | None = None) -> TaskValidation:  # fmt: skip
+    """Run every check on one task (a name or a task file), under `variations` if given, in this process; episodes
+    go to `out_dir`."""
+    from robolab_ms.envs import register_task_file
+    from robolab_ms.policies import make_policy
+    from robolab_ms.tasks.spec import load_task
+
+    spec = load_task(task)
+    register_task_file(spec.file, replace=True)  # the id loads exactly this file in this process
+    seed_range = range(first_seed, first_seed + seeds)
+    rest = check_rest(str(spec.file), seed_range, variations)
+    config = validation_config((str(spec.file),), seeds, first_seed, variations)
+    random_results = run_evaluation(make_policy("random"), config, out_dir, show_progress)
+    oracle = WatchedPolicy(make_policy("oracle"))
+    oracle_results = run_evaluation(oracle, config, out_dir, show_progress)
+    return task_row(spec, seed_range, rest, random_results + oracle_results, oracle.watches)
+
+
+# ------------------------------------------------------------------------------------------------ in worker processes
+REST, RANDOM, ORACLE = "rest", "random", "oracle"  # the kinds of validation job
+
+
+@dataclass(frozen=True)
+class ValidationJob:
+    """One piece of a validation run: a task's rest check (over all its seeds, `seed` the first) or one episode of
+    the random or the oracle policy. `task` is the task file, `name` the task's name."""
+
+    check: str  # REST, RANDOM or ORACLE
+    task: str
+    name: str
+    seed: int
+
+
+class ValidationWorker:
+    """Runs validation jobs in a worker process of `robolab validate --workers N` (eval's process pool): the rest
+    check as `check_rest` does it in one process, and the random and oracle episodes each through an eval
+    EpisodeWorker of its own, which keeps that policy's environment until a job of another task comes."""
+
+    def __init__(self, policy: None, config: EvalConfig, out_dir: Path, content_roots: list[str]) -> None:
+        """`policy` is unused (validation always runs the random and the oracle policy); the rest as EpisodeWorker."""
+        from robolab_ms.eval.parallel import EpisodeWorker, PolicySpec
+        from robolab_ms.policies import PolicyOptions
+
+        self.config = config
+        self.episode_workers = {name: EpisodeWorker(PolicySpec(name, PolicyOptions()), config, out_dir, content_roots)
+                         for name in (RANDOM, ORACLE)}  # fmt: skip
+        self.episode_workers[ORACLE].policy = WatchedPolicy(self.episode_workers[ORACLE].policy)
+
+    def run(self, job: ValidationJob) -> tuple[float, int] | tuple[EpisodeResult, EpisodeWatch | None]:
+        """A rest check's (largest drift in m, seeds solved at reset), or an episode's result with the oracle's
+        watch of it (None for the random policy)."""
+        from robolab_ms.eval.parallel import Job
+
+        if job.check == REST:
+            return check_rest(job.task, range(job.seed, job.seed + self.config.episodes), self.config.variations)
+        worker = self.episode_workers[job.check]
+        result = worker.run(Job(job.task, job.name, job.seed))
+        watch = worker.policy.watches.pop(job.seed, None) if job.check == ORACLE else None
+        return result, watch
+
+    def close(self) -> None:
+        try:
+            self.episode_workers[RANDOM].close()
+        finally:
+            self.episode_workers[ORACLE].close()
+
+
+@dataclass
+class _TaskProgress:
+    """The lead process's view of one task in a parallel validation run."""
+
+    spec: Any
+    jobs_left: int  # jobs handed out or still to hand out
+    rest: tuple[float, int] | None = None
+    watches: dict[int, EpisodeWatch] = field(default_factory=dict)
+    row: TaskValidation | None = None
+
+
+def validate_parallel(tasks: list[str], seeds: int, out_dir: Path, first_seed: int = 0, workers: int = 2,
+                      show_progress: bool = True, variations: str | None = None) -> list[TaskValidation]:  # fmt: skip
+    """Validate `tasks` (names or task files) with their rest checks and episodes spread over `workers` processes;
+    the same rows and episodes as `validate_task` task after task. This process alone writes `out_dir`: each
+    episode's line as it arrives (a rerun resumes from them) and the report whenever a task is complete (its rows
+    in task order). Returns the rows in task order."""
+    from tqdm import tqdm
+
+    from robolab_ms.eval.parallel import _ProcessPool
+    from robolab_ms.eval.results import exclusive_writer, read_results
+    from robolab_ms.eval.runner import _check_same_variations, _write_manifest, _write_tables
+    from robolab_ms.policies import make_policy
+    from robolab_ms.tasks.spec import load_task
+
+    if workers < 1:
+        raise RoboLabError(f"--workers must be at least 1, got {workers}")
+    specs = [load_task(task) for task in tasks]  # every task checked before any worker starts
+    seed_range = range(first_seed, first_seed + seeds)
+    config = validation_config(tuple(str(spec.file) for spec in specs), seeds, first_seed, variations)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with exclusive_writer(out_dir):
+        results = {r.key(): r for r in read_results(out_dir)}
+        policies = {name: make_policy(name) for name in (RANDOM, ORACLE)}
+        for policy in policies.values():
+            _check_same_variations(results.values(), policy, config, out_dir)
+        _write_manifest(out_dir, policies[ORACLE], config)
+        todo: list[ValidationJob] = []
+        progress: dict[str, _TaskProgress] = {}
+        done_before = 0
+        for spec in specs:
+            jobs = [ValidationJob(REST, str(spec.file), spec.name, first_seed)]
+            for check in (RANDOM, ORACLE):
+                for seed in seed_range:
+                    if episode_key(spec.name, config.instruction, config.robot, check, seed) in results:
+                        done_before += 1
+                    else:
+                        jobs.append(ValidationJob(check, str(spec.file), spec.name, seed))
+            todo += jobs
+            progress[spec.name] = _TaskProgress(spec, len(jobs))
+        bar = tqdm(total=2 * seeds * len(specs), initial=done_before, desc="validate", unit="episode",
+                   disable=not show_progress, dynamic_ncols=True)  # fmt: skip
+        pool: _ProcessPool | None = None
+        graceful = False
+        try:
+            pool = _ProcessPool(min(workers, len(todo)), None, config, out_dir, worker_class=ValidationWorker)
+            current: list[str | None] = [None] * pool.size
+            busy: dict[int, ValidationJob] = {}
+            while True:
+                for index in range(pool.size):
+                    if index not in busy and todo:
+                        job = _next_job(todo, current[index])
+                        pool.submit(index, job)
+                        busy[index], current[index] = job, job.name
+                if not busy:
+                    break
+                bar.set_postfix_str(", ".join(f"{job.name} {job.check} {job.seed}" for job in busy.values()),
+                                    refresh=False)  # fmt: skip
+                for index, outcome, _ in pool.wait(busy):
+                    job = busy.pop(index)
+                    task = progress[job.name]
+                    if job.check == REST:
+                        task.rest = outcome
+                    else:
+                        result, watch = outcome
+                        append_result(out_dir, result)
+                        results[result.key()] = result
+                        if watch is not None:
+                            task.watches[job.seed] = watch
+                        bar.update(1)
+                    task.jobs_left -= 1
+                    if task.jobs_left == 0:
+                        task.row = task_row(task.spec, seed_range, task.rest, list(results.values()), task.watches)
+                        write_report([t.row for t in progress.values() if t.row is not None], out_dir)
+            graceful = True
+        finally:
+            bar.close()
+            if pool is not None:
+                pool.close(graceful)
+        _write_tables(out_dir, policies[ORACLE])  # as the sequential run leaves them: its last evaluation's
+    return [task.row for task in progress.values()]
+
+
+def _next_job(todo: list[ValidationJob], current_task: str | None) -> ValidationJob:
+    """Take the next job for a worker whose environments hold `current_task`: that task's first, if any."""
+    index = next((i for i, job in enumerate(todo) if job.name == current_task), 0)
+    return todo.pop(index)
 
 
 def write_report(rows: list[TaskValidation], out_dir: Path) -> Path:
