@@ -97,8 +97,9 @@ VALID: dict[str, dict[str, set[str]]] = {
         "objects.*.transform.translation[]": {"zero", "negative"},
     },
 }
-TURNS = {"objects[].yaw_deg": {"zero", "negative", "missing"}, "objects[].tilt": {"missing"},
-         "objects[].tilt.deg": {"zero", "negative"}}  # -1 degree: a slight turn
+TURNS = {"objects[].yaw_deg": {"zero", "negative", "missing"}, "objects[].tilt": {"missing", "repeated_entry"},
+         "objects[].tilt.deg": {"zero", "negative"}, "objects[].tilt[].deg": {"zero", "negative"},
+         "objects[].rests_on": {"missing"}}  # -1 degree: a slight turn; without its support, on the table
 LAYOUT = "layout"  # valid, or refused because objects overlap or leave the table (depends on the other objects)
 
 
@@ -312,7 +313,8 @@ def run_mutations(kind: str, name: str, data: dict, file: Path, load: Callable[[
             elif expected is None:
                 problems.append(f"{where}refused although valid: {error}")
             elif expected == LAYOUT:
-                if not (matches("objects[].xy", error.field) and ("overlaps" in error.problem or "table" in error.problem)):
+                if not (matches("objects[].xy", error.field)
+                        and any(word in error.problem for word in ("overlaps", "table", "support"))):
                     problems.append(f"{where}refused, but not for the layout: {error}")
             elif not field_matches(error.field, expected, mutation, isinstance(originals[path], dict)):
                 problems.append(f"{where}the error names field '{error.field}', not '{expected}': {error}")
@@ -440,3 +442,51 @@ def test_a_broken_task_file_is_refused_however_it_arrives(tmp_path, capsys):
         assert main([*command, "--task", str(path)]) == 2, command
         printed = capsys.readouterr().err
         assert f"{path}: field 'episode_seconds'" in printed and "Traceback" not in printed, (command, printed)
+
+
+PILE_SCENE = """name: pile
+objects:
+  - {{name: bottom, asset: rubiks_cube, xy: [0.5, 0.0]}}
+  - {{name: top, asset: rubiks_cube, xy: [{top_x}, 0.0], rests_on: {top_on}}}
+  - {{name: bin, asset: grey_bin, xy: [0.5, -0.3]}}
+"""
+
+
+@pytest.mark.parametrize(
+    ("top_x", "top_on", "field", "problem"),
+    [
+        (0.5, "botom", "objects[1].rests_on", "Did you mean 'bottom'"),  # a typo
+        (0.5, "table", "objects[1].rests_on", "names the table"),  # the table is every object's support already
+        (0.5, "top", "objects[1].rests_on", "cannot rest on itself"),
+        (0.7, "bottom", "objects[1].xy", "is not over its support 'bottom'"),  # beside it, not on it
+        (0.5, "[bottom]", "objects[1].rests_on", "must be a text"),
+    ],
+)
+def test_bad_support_names_file_field_and_fix(tmp_path, top_x, top_on, field, problem):
+    path = tmp_path / "pile.yaml"
+    path.write_text(PILE_SCENE.format(top_x=top_x, top_on=top_on))
+    with pytest.raises(SpecError) as error:
+        read_scene(path)
+    assert error.value.file == str(path) and error.value.field == field, error.value
+    assert problem in str(error.value) and error.value.fix, error.value
+
+
+def test_supports_that_form_a_loop_are_refused(tmp_path):
+    path = tmp_path / "pile.yaml"
+    path.write_text(PILE_SCENE.format(top_x=0.5, top_on="bottom").replace(
+        "{name: bottom, asset: rubiks_cube, xy: [0.5, 0.0]}", "{name: bottom, asset: rubiks_cube, xy: [0.5, 0.0], "
+        "rests_on: top}"))  # fmt: skip
+    with pytest.raises(SpecError) as error:
+        read_scene(path)
+    assert error.value.field == "objects[0].rests_on" and "loop (bottom on top on bottom)" in error.value.problem
+
+
+def test_an_object_that_would_reach_the_table_first_is_refused(tmp_path):
+    """A tilted keyboard whose raised end just reaches over a cube: lowered, its other end meets the table first."""
+    path = tmp_path / "pile.yaml"
+    path.write_text(PILE_SCENE.format(top_x=0.5, top_on="bottom").replace(
+        "{name: top, asset: rubiks_cube, xy: [0.5, 0.0], rests_on: bottom}",
+        "{name: top, asset: keyboard_low, xy: [0.5, 0.2], tilt: {axis: x, deg: -30}, rests_on: bottom}"))  # fmt: skip
+    with pytest.raises(SpecError, match="would rest on the table before it touches its support 'bottom'") as error:
+        read_scene(path)
+    assert error.value.field == "objects[1].xy"

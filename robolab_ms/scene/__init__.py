@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +33,7 @@ MAX_TABLE_SIZE = (2 * (TABLE_CENTER_XY[0] - ROBOT_PEDESTAL_FRONT_X), 2.0)
 MAX_JITTER_XY = 0.1  # m
 OVERLAP_TOLERANCE = 0.001  # m: outlines may touch or overlap this much
 RESERVED_NAMES = ("table", "robot_pedestal")  # the environment's own bodies
+SETTLE_CLEARANCE = 0.002  # m: objects start this far above where they rest, and drop into place
 
 
 @dataclass(frozen=True)
@@ -40,13 +41,17 @@ class ObjectPlacement:
     """One object of a scene: its scene-unique name, catalog entry and nominal pose on the table.
 
     `tilt` is the resting orientation (quaternion w, x, y, z) before the yaw about the world z: identity for an
-    object standing as the catalog defines it, a quarter turn about x or y to lay it on its side."""
+    object standing as the catalog defines it, a quarter turn about x or y to lay it on its side. `on` (scene field
+    `rests_on`) names the object it starts on or in (a cube on a cube, a keyboard leaning into a bin); it moves
+    with that support."""
 
     name: str
     asset: str
     xy: tuple[float, float]
     yaw: float
     tilt: tuple[float, float, float, float] = IDENTITY_QUAT
+    on: str | None = None  # the scene object it rests on (None: the table)
+    z: float = 0.0  # height of its origin at the nominal place: resting on its support, plus SETTLE_CLEARANCE
 
 
 @dataclass(frozen=True)
@@ -66,6 +71,27 @@ class SceneSpec:
 
     def object_names(self) -> list[str]:
         return [placement.name for placement in self.objects]
+
+    def placement(self, name: str) -> ObjectPlacement:
+        """The placement of the object called `name`."""
+        for placement in self.objects:
+            if placement.name == name:
+                return placement
+        raise UnknownNameError("object", name, self.object_names())
+
+    def supports(self, name: str) -> list[str]:
+        """The objects `name` rests on, nearest first (empty for an object on the table)."""
+        chain = []
+        support = self.placement(name).on
+        while support is not None:
+            chain.append(support)
+            support = self.placement(support).on
+        return chain
+
+    def base(self, name: str) -> str:
+        """The object at the bottom of `name`'s pile, which stands on the table (`name` itself when it does)."""
+        chain = self.supports(name)
+        return chain[-1] if chain else name
 
 
 def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
@@ -106,10 +132,12 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
     if not objects:
         raise fields.error("objects", "is empty", "Place at least one catalog object")
     placements: list[ObjectPlacement] = []
+    items: list[Fields] = []
     seen: dict[str, int] = {}
     for index, entry in enumerate(objects):
         item = Fields(entry, file, f"objects[{index}]")
-        item.only(["name", "asset", "xy", "yaw_deg", "tilt"])
+        items.append(item)
+        item.only(["name", "asset", "xy", "yaw_deg", "tilt", "rests_on"])
         asset = item.name_in("asset", catalog.names(), "catalog object")
         name = item.get("name", str, asset)
         if not name.replace("_", "").isalnum() or not name.isascii():
@@ -129,15 +157,23 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
                 raise item.error("xy", f"{axis} = {value} is off the usable table", f"Keep {axis} within [{low}, {high}]")
         tilt = IDENTITY_QUAT
         if item.has("tilt"):
-            if not isinstance(item.data["tilt"], dict):
-                raise item.error("tilt", f"must be a mapping, got {item.data['tilt']!r}",
-                                 "Write it as tilt: {axis: x, deg: 90} (axis x or y of the object, degrees)")
-            tilt = read_tilt(item.sub("tilt"))
+            value = item.data["tilt"]
+            if isinstance(value, list) and value:  # turns one after the other
+                for turn in range(len(value)):
+                    tilt = tuple(quat_multiply(read_tilt(Fields(value[turn], file, item.where(f"tilt[{turn}]"))), tilt))
+            elif isinstance(value, dict):
+                tilt = read_tilt(item.sub("tilt"))
+            else:
+                raise item.error("tilt", f"must be a mapping or a list of them, got {value!r}",
+                                 "Write it as tilt: {axis: x, deg: 90} (axis x or y of the object, degrees), or a "
+                                 "list of such turns")  # fmt: skip
         yaw = math.radians(item.number("yaw_deg", -360.0, 360.0, 0.0, unit="degrees"))
         placements.append(ObjectPlacement(name, asset, (xy[0], xy[1]), yaw, tilt))
     name = fields.get("name", str)
     if name != file.stem:
         raise fields.error("name", f"'{name}' differs from the file name '{file.stem}'", "Make them the same")
+    placements = read_supports(items, placements)
+    placements = rest_heights(items, placements, catalog)
     check_layout(fields, placements, catalog, (table_size[0], table_size[1]))
     check_jittered_footprints(fields, placements, catalog, (table_size[0], table_size[1]), jitter_xy, jitter_yaw)
     return SceneSpec(
@@ -154,8 +190,76 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
     )
 
 
+def read_supports(items: Sequence[Fields], placements: Sequence[ObjectPlacement]) -> list[ObjectPlacement]:
+    """The placements with their `rests_on` field: another object of the scene, not the object itself, and no loop
+    of supports (a on b on a)."""
+    names = [placement.name for placement in placements]
+    supported = []
+    for item, placement in zip(items, placements):
+        if not item.has("rests_on"):
+            supported.append(placement)
+            continue
+        support = item.get("rests_on", str)
+        if support == "table":
+            raise item.error("rests_on", "names the table, which every object without `rests_on` stands on",
+                             "Leave `rests_on` out to set the object on the table")  # fmt: skip
+        support = item.name_in("rests_on", names, "object of this scene")
+        if support == placement.name:
+            raise item.error("rests_on", f"'{support}' cannot rest on itself", "Name the object it rests on or in")
+        supported.append(replace(placement, on=support))
+    support_of = {placement.name: placement.on for placement in supported}
+    for item, placement in zip(items, supported):
+        chain = [placement.name]
+        while support_of[chain[-1]] is not None:
+            chain.append(support_of[chain[-1]])
+            if chain[-1] == placement.name:
+                raise item.error("rests_on", f"the supports form a loop ({' on '.join(chain)})",
+                                 "Let the bottom object of the pile stand on the table (leave its `rests_on` out)")  # fmt: skip
+    return supported
+
+
+def rest_heights(items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog
+                 ) -> list[ObjectPlacement]:  # fmt: skip
+    """The placements with `z`, the height of each origin that rests the object on the table top or,
+    with `rests_on`, lowered straight down onto its support (supports first), plus SETTLE_CLEARANCE."""
+    from robolab_ms.scene.support import drop_height, placed_pieces
+
+    by_name = {placement.name: index for index, placement in enumerate(placements)}
+    heights: dict[str, float] = {}
+
+    def height(index: int) -> float:
+        placement = placements[index]
+        if placement.name in heights:
+            return heights[placement.name]
+        entry = catalog[placement.asset]
+        rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(placement.yaw), placement.tilt)))
+        on_table = resting_height(entry.points, placement.tilt)
+        z = on_table
+        if placement.on is not None:
+            below = by_name[placement.on]
+            support = placements[below]
+            support_rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(support.yaw), support.tilt)))
+            support_pieces = placed_pieces(catalog[support.asset], support_rotation,
+                                           np.array([*support.xy, height(below)]))  # fmt: skip
+            lift = drop_height(placed_pieces(entry, rotation, np.array([*placement.xy, 0.0])), support_pieces)
+            item = items[index]
+            if lift is None:
+                raise item.error("xy", f"'{placement.name}' is not over its support '{placement.on}' (seen from above "
+                                 "their outlines do not meet)", f"Move it over '{placement.on}', or leave `rests_on` out")
+            if lift < on_table - SETTLE_CLEARANCE:
+                raise item.error("xy", f"'{placement.name}' would rest on the table before it touches its support "
+                                 f"'{placement.on}' ({(on_table - lift) * 100:.1f} cm above it there)",
+                                 f"Move it over '{placement.on}', or leave `rests_on` out")  # fmt: skip
+            z = max(on_table, lift)
+        heights[placement.name] = z + SETTLE_CLEARANCE
+        return heights[placement.name]
+
+    return [replace(placement, z=height(index)) for index, placement in enumerate(placements)]
+
+
 def read_tilt(tilt: Fields) -> tuple[float, float, float, float]:
-    """The quaternion of a `tilt: {axis: x|y, deg: D}` entry: D degrees about the object's own x or y axis."""
+    """The quaternion of a `tilt: {axis: x|y, deg: D}` entry: D degrees about the x or y axis (of the object as it
+    stands before this turn and the yaw; a list of entries turns about the same fixed axes, one after the other)."""
     tilt.only(["axis", "deg"])
     axis = tilt.choice("axis", TILT_AXES)
     if tilt.has("deg") and isinstance(tilt.data["deg"], (int, float)) and not -180 <= tilt.data["deg"] <= 180:
@@ -211,8 +315,19 @@ def _inside(inner: np.ndarray, outer: np.ndarray, tolerance: float) -> bool:
 def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog: Catalog,
                  table_size: tuple[float, float]) -> None:
     """Objects lie wholly on the table and apart at their nominal places; an object may stand wholly inside the
-    outline of a container (the simulator lifts it onto the container's floor in the first steps)."""
+    outline of a container (the simulator lifts it onto the container's floor in the first steps), and one resting
+    on another (`rests_on`) may overlap the objects of its pile."""
     outlines = [footprint(catalog[placement.asset], placement) for placement in placements]
+    support_of = {placement.name: placement.on for placement in placements}
+
+    def below(name: str) -> set[str]:
+        chain = set()
+        while support_of[name] is not None:
+            name = support_of[name]
+            chain.add(name)
+        return chain
+
+    piles = [below(placement.name) for placement in placements]
     for size, default_size, axis, centre in zip(table_size, DEFAULT_TABLE_SIZE, range(2), TABLE_CENTER_XY):
         low, high = centre - size / 2, centre + size / 2
         for index, (placement, outline) in enumerate(zip(placements, outlines)):
@@ -238,6 +353,12 @@ def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog:
             depth = _overlap(outlines[earlier], outlines[later])
             if depth <= OVERLAP_TOLERANCE:
                 continue
+            if placements[earlier].name in piles[later] or placements[later].name in piles[earlier]:
+                continue  # one rests on the other
+            if placements[earlier].on or placements[later].on:  # one is lifted off the table: apart in height?
+                depth = _depth_in_space(placements[earlier], placements[later], catalog)
+                if depth <= OVERLAP_TOLERANCE:
+                    continue
             if any(catalog[placements[outer].asset].is_container
                    and _inside(outlines[inner], outlines[outer], OVERLAP_TOLERANCE)
                    for inner, outer in ((later, earlier), (earlier, later))):  # fmt: skip
@@ -248,19 +369,34 @@ def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog:
                                "wholly inside a container's outline")  # fmt: skip
 
 
-def jittered_extent(entry: CatalogObject, placement: ObjectPlacement, jitter_xy: float,
-                    jitter_yaw: float) -> np.ndarray:
+def _depth_in_space(first: ObjectPlacement, second: ObjectPlacement, catalog: Catalog) -> float:
+    """How deep two objects at their nominal poses (heights included) interpenetrate (m; 0 or less: apart)."""
+    from robolab_ms.scene.support import overlap_depth, placed_pieces
+
+    def pieces(placement: ObjectPlacement) -> list[np.ndarray]:
+        rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(placement.yaw), placement.tilt)))
+        return placed_pieces(catalog[placement.asset], rotation, np.array([*placement.xy, placement.z]))
+
+    return overlap_depth(pieces(first), pieces(second))
+
+
+def jittered_extent(entry: CatalogObject, placement: ObjectPlacement, jitter_xy: float, jitter_yaw: float,
+                    pivot: tuple[float, float] | None = None) -> np.ndarray:
     """The x-y box covering an object's footprint at every pose the scene's jitter allows (its centre moved up to
-    `jitter_xy` along x and along y, its yaw turned up to `jitter_yaw`): [[min x, min y], [max x, max y]]."""
+    `jitter_xy` along x and along y, its yaw turned up to `jitter_yaw`, about `pivot`, the centre of the object at
+    the bottom of its pile, default its own centre): [[min x, min y], [max x, max y]]."""
     steps = max(1, math.ceil(2 * jitter_yaw / math.radians(JITTER_YAW_STEP_DEG)) + 1)
     points = _outline_points(entry)
+    pivot_xy = np.asarray(placement.xy if pivot is None else pivot)
+    arm = np.asarray(placement.xy) - pivot_xy
     low, high = np.full(2, np.inf), np.full(2, -np.inf)
-    for yaw in np.linspace(placement.yaw - jitter_yaw, placement.yaw + jitter_yaw, steps):
-        rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(float(yaw)), placement.tilt)))
-        xy = points @ rotation[:2].T
+    for turn in np.linspace(-jitter_yaw, jitter_yaw, steps):
+        rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(placement.yaw + float(turn)), placement.tilt)))
+        c, s = math.cos(turn), math.sin(turn)
+        centre = pivot_xy + np.array([c * arm[0] - s * arm[1], s * arm[0] + c * arm[1]])
+        xy = points @ rotation[:2].T + centre
         low, high = np.minimum(low, xy.min(axis=0)), np.maximum(high, xy.max(axis=0))
-    centre = np.asarray(placement.xy)
-    return np.stack([centre + low - jitter_xy, centre + high + jitter_xy])
+    return np.stack([low - jitter_xy, high + jitter_xy])
 
 
 def check_jittered_footprints(fields: Fields, placements: Sequence[ObjectPlacement], catalog: Catalog,
@@ -269,8 +405,13 @@ def check_jittered_footprints(fields: Fields, placements: Sequence[ObjectPlaceme
     place (check_layout): an object hanging over the edge in some episodes would tip or fall in those only."""
     table_low = np.asarray(TABLE_CENTER_XY) - np.asarray(table_size) / 2
     table_high = np.asarray(TABLE_CENTER_XY) + np.asarray(table_size) / 2
+    xy_of = {placement.name: placement.xy for placement in placements}
+    support_of = {placement.name: placement.on for placement in placements}
     for index, placement in enumerate(placements):
-        low, high = jittered_extent(catalog[placement.asset], placement, jitter_xy, jitter_yaw)
+        base = placement.name
+        while support_of[base] is not None:
+            base = support_of[base]
+        low, high = jittered_extent(catalog[placement.asset], placement, jitter_xy, jitter_yaw, xy_of[base])
         beyond_low, beyond_high = table_low - low, high - table_high
         for axis in range(2):
             over = max(beyond_low[axis], beyond_high[axis])

@@ -25,7 +25,7 @@ from robolab_ms.catalog.appearance import (
 )
 from robolab_ms.catalog.procedural import Part
 from robolab_ms.scene.backgrounds import lighting_cubemap, load_looks, panorama_texture
-from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, quat_multiply, resting_height, yaw_quat
+from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, quat_multiply, yaw_quat
 
 TABLE_TOP_THICKNESS = 0.035
 ROOM_RADIUS = 7.0  # m: half the floor's size; the panorama sphere is just outside it
@@ -81,8 +81,8 @@ class RoboLabSceneBuilder(SceneBuilder):
 
         for placement in self.spec.objects:
             entry = self.catalog[placement.asset]
-            z = resting_height(entry.points, placement.tilt) + 0.002
-            pose = sapien.Pose(p=[*placement.xy, z], q=quat_multiply(yaw_quat(placement.yaw), placement.tilt))
+            pose = sapien.Pose(p=[*placement.xy, placement.z],
+                               q=quat_multiply(yaw_quat(placement.yaw), placement.tilt))  # fmt: skip
             self.objects[placement.name] = entry.build(self.scene, placement.name, pose)
         self.scene_objects = {"table": self.table, "robot_pedestal": self.pedestal, **self.objects}
         self.movable_objects = dict(self.objects)
@@ -174,16 +174,25 @@ class RoboLabSceneBuilder(SceneBuilder):
         return render
 
     def initialize(self, env_idx: torch.Tensor, init_config_idxs: list[int] | None = None) -> None:
+        """Each object at its nominal place, moved and turned by the scene's jitter; an object resting on another
+        moves and turns with the object at the bottom of its pile, so the pile stays as the scene file built it."""
         count = len(env_idx)
         rng = self.env._batched_episode_rng[env_idx]
-        for placement in self.spec.objects:
-            entry = self.catalog[placement.asset]
+        jitter = {}
+        for placement in self.spec.objects:  # one draw per object, in scene order, whether it is used or not
             offset = rng.uniform(-self.spec.jitter_xy, self.spec.jitter_xy, size=(2,)).reshape(count, 2)
-            yaw = placement.yaw + rng.uniform(-self.spec.jitter_yaw, self.spec.jitter_yaw, size=(1,)).reshape(count)
+            turn = rng.uniform(-self.spec.jitter_yaw, self.spec.jitter_yaw, size=(1,)).reshape(count)
+            jitter[placement.name] = (offset, turn)
+        for placement in self.spec.objects:
+            base = self.spec.placement(self.spec.base(placement.name))
+            offset, turn = jitter[base.name]
+            arm = np.asarray(placement.xy) - np.asarray(base.xy)
+            cos, sin = np.cos(turn), np.sin(turn)
             position = np.zeros((count, 3))
-            position[:, :2] = np.asarray(placement.xy) + offset
-            position[:, 2] = resting_height(entry.points, placement.tilt) + 0.002
-            quaternion = np.stack([quat_multiply(yaw_quat(angle), placement.tilt) for angle in yaw])
+            position[:, 0] = base.xy[0] + cos * arm[0] - sin * arm[1] + offset[:, 0]
+            position[:, 1] = base.xy[1] + sin * arm[0] + cos * arm[1] + offset[:, 1]
+            position[:, 2] = placement.z
+            quaternion = np.stack([quat_multiply(yaw_quat(angle), placement.tilt) for angle in placement.yaw + turn])
             actor = self.objects[placement.name]
             actor.set_pose(Pose.create_from_pq(
                 torch.as_tensor(position, dtype=torch.float32), torch.as_tensor(quaternion, dtype=torch.float32)))

@@ -122,11 +122,12 @@ def _bodies(env: Any) -> dict[str, _Body]:
 
 def _groups(scene: Any, catalog: Any) -> list[tuple[str, ...]]:
     """Objects that move together: each container with the objects its outline holds at the layout (container
-    first), every other object alone; in scene order."""
+    first), an object with the objects resting on it (scene field `rests_on`), every other object alone; in scene
+    order."""
     from robolab_ms.scene import OVERLAP_TOLERANCE, _inside, footprint
 
     outlines = {p.name: footprint(catalog[p.asset], p) for p in scene.objects}
-    held: dict[str, str] = {}
+    held: dict[str, str] = {p.name: scene.base(p.name) for p in scene.objects if p.on is not None}  # piles
     for outer in scene.objects:
         if not catalog[outer.asset].is_container:
             continue
@@ -134,6 +135,9 @@ def _groups(scene: Any, catalog: Any) -> list[tuple[str, ...]]:
             if inner.name != outer.name and inner.name not in held and not catalog[inner.asset].is_container:
                 if _inside(outlines[inner.name], outlines[outer.name], OVERLAP_TOLERANCE):
                     held[inner.name] = outer.name
+    for name in list(held):  # a pile inside a container moves with the container
+        while held[name] in held:
+            held[name] = held[held[name]]
     groups = []
     for placement in scene.objects:
         if placement.name in held:
