@@ -88,37 +88,26 @@ class Rate:
         return success_interval(self.successes, self.episodes)
 
 
-def rate_of(frame: pd.DataFrame) -> Rate:
-    """The success rate of a set of episodes (rows of `RunSet.episodes`)."""
-    return Rate(int(frame["success"].astype(bool).sum()), len(frame))
-
-
-def _mean(frame: pd.DataFrame, column: str) -> float:
-    import pandas as pd
-
-    if column not in frame:
-        return math.nan
-    values = pd.to_numeric(frame[column], errors="coerce").dropna()
-    return float(values.mean()) if len(values) else math.nan
+TASK_COLUMNS = ("policy", "task", "episodes", "successes", "score", "score_fail", "time_to_success_s", "ee_sparc",
+                "ee_path_cm", "ee_speed_mean_cm_s")  # fmt: skip
 
 
 def rank_policies(episodes: pd.DataFrame) -> pd.DataFrame:
     """One row per policy in rank order (see the module docstring): rank, policy, episodes, successes, tasks,
-    success (0..1), success_low, success_high, score, score_fail."""
-    import pandas as pd
+    success (0..1), success_low, success_high, score, score_fail. Numbers from `report.breakdown`."""
+    from robolab_ms.analysis.report import breakdown
+    from robolab_ms.analysis.tables import success_interval
 
-    rows = []
-    for policy, group in episodes.groupby("policy", sort=True):
-        rate = rate_of(group)
-        low, high = rate.interval
-        failed = group[~group["success"].astype(bool)]
-        rows.append({"policy": str(policy), "episodes": rate.episodes, "successes": rate.successes,
-                     "tasks": int(group["task"].nunique()), "success": rate.value, "success_low": low,
-                     "success_high": high, "score": _mean(group, "score"),
-                     "score_fail": _mean(failed, "score")})  # fmt: skip
-    table = pd.DataFrame(rows)
+    table = breakdown(episodes)[["policy", "episodes", "successes", "score", "score_fail"]].copy()
     if table.empty:
         return table
+    tasks = episodes.groupby("policy")["task"].nunique()
+    table["tasks"] = [int(tasks[policy]) for policy in table["policy"]]
+    table["policy"] = table["policy"].astype(str)
+    table["success"] = table["successes"] / table["episodes"]
+    intervals = [success_interval(int(k), int(n)) for k, n in zip(table["successes"], table["episodes"])]
+    table["success_low"] = [low for low, _ in intervals]
+    table["success_high"] = [high for _, high in intervals]
     table = table.sort_values(["success", "score", "policy"], ascending=[False, False, True], na_position="last",
                               kind="mergesort").reset_index(drop=True)  # fmt: skip
     ranks: list[int] = []
@@ -131,39 +120,30 @@ def rank_policies(episodes: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
-def group_rates(episodes: pd.DataFrame, column: str, order: Sequence[str] = ()) -> dict[str, dict[str, Rate]]:
-    """Success per value of a task column and per policy: {value: {policy: Rate}}. A `;`-separated column
-    (`axes`, `attributes`) counts an episode under each of its values; values in `order` come first."""
-    from robolab_ms.analysis.runs import explode_column
+def group_rates(episodes: pd.DataFrame, grouping: str, order: Sequence[str] = ()) -> dict[str, dict[str, Rate]]:
+    """Success per group and policy, {group: {policy: Rate}}, for a grouping of `report.breakdown` (`axis`,
+    `difficulty`, ...); an episode counts under each axis of its task. Groups in `order` come first; empty when no
+    episode has the grouping's column."""
+    from robolab_ms.analysis.report import GROUPINGS, breakdown
 
-    if column not in episodes or episodes[column].isna().all():
+    if episodes[GROUPINGS.get(grouping, grouping)].isna().all():
         return {}
-    frame = explode_column(episodes, column) if column in ("axes", "attributes") else episodes.dropna(subset=[column])
-    frame = frame[frame[column].astype(str) != ""]
-    values = sorted(frame[column].astype(str).unique(), key=lambda v: (order.index(v) if v in order else len(order), v))
-    return {value: {str(policy): rate_of(group) for policy, group in frame[frame[column].astype(str) == value]
-                    .groupby("policy", sort=True)} for value in values}  # fmt: skip
+    table = breakdown(episodes, grouping)
+    table = table.assign(**{grouping: table[grouping].astype(str)})
+    table = table[table[grouping] != ""]
+    values = sorted(table[grouping].unique(), key=lambda v: (order.index(v) if v in order else len(order), v))
+    rates: dict[str, dict[str, Rate]] = {value: {} for value in values}
+    for row in table[["policy", grouping, "successes", "episodes"]].itertuples(index=False):
+        rates[row[1]][str(row.policy)] = Rate(int(row.successes), int(row.episodes))
+    return rates
 
 
-def task_policy_table(task_episodes: pd.DataFrame, policy_order: Sequence[str]) -> pd.DataFrame:
-    """Per policy on one task (rows in `policy_order`, policies without episodes left out): episodes, success with
-    its interval, score, Score(fail), time to success (s, successes only), SPARC, path (cm), mean speed (cm/s)."""
-    import pandas as pd
-
-    rows = []
-    for policy in policy_order:
-        group = task_episodes[task_episodes["policy"] == policy]
-        if group.empty:
-            continue
-        rate = rate_of(group)
-        low, high = rate.interval
-        failed = group[~group["success"].astype(bool)]
-        rows.append({"policy": policy, "episodes": rate.episodes, "successes": rate.successes, "success": rate.value,
-                     "success_low": low, "success_high": high, "score": _mean(group, "score"),
-                     "score_fail": _mean(failed, "score"), "time_to_success_s": _mean(group, "time_to_success_s"),
-                     "ee_sparc": _mean(group, "ee_sparc"), "ee_path_cm": _mean(group, "ee_path_cm"),
-                     "ee_speed_mean_cm_s": _mean(group, "ee_speed_mean_cm_s")})  # fmt: skip
-    return pd.DataFrame(rows)
+def task_policy_table(per_task: pd.DataFrame, task: str, policy_order: Sequence[str]) -> pd.DataFrame:
+    """The rows of one task in `per_task` (`report.breakdown(episodes, "task")`), policies in `policy_order`: episodes,
+    successes, score, Score(fail), time to success (s, successes only), SPARC, path (cm), mean speed (cm/s)."""
+    rows = per_task.loc[per_task["task"] == task, list(TASK_COLUMNS)]
+    position = {policy: index for index, policy in enumerate(policy_order)}
+    return rows.assign(policy=rows["policy"].astype(str)).sort_values("policy", key=lambda p: p.map(position))
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -469,7 +449,9 @@ def collect_videos(runs: RunSet, site: Path, mode: str) -> dict[tuple[str, str],
             missing.append(f"{row.run}/{row.video}")
             continue
         if mode == "copy":
-            target = site / VIDEO_DIR / run_dirs[row.run] / source.relative_to(folder)
+            inside = source.relative_to(folder)  # usually videos/<Task>/<file>.mp4: its videos/ is not repeated
+            inside = inside.relative_to(VIDEO_DIR) if inside.parts[0] == VIDEO_DIR and len(inside.parts) > 1 else inside
+            target = site / VIDEO_DIR / run_dirs[row.run] / inside
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(source, target)
             href = target.relative_to(site).as_posix()
@@ -516,6 +498,7 @@ class Leaderboard:
     axes: dict[str, dict[str, Rate]]
     difficulties: dict[str, dict[str, Rate]]
     tasks: pd.DataFrame  # one row per task: task, scene, difficulty, axes, attributes (in task-name order)
+    per_task: pd.DataFrame  # `report.breakdown(episodes, "task")`: one row per task and policy
     task_rates: dict[tuple[str, str], Rate]  # (task, policy) -> Rate
     task_pages: dict[str, str]  # task -> page path relative to the site
     runs: list[str]
@@ -525,18 +508,21 @@ class Leaderboard:
 
 def build_leaderboard(runs: RunSet, real_world: Sequence[RealWorldResult] | None = None) -> Leaderboard:
     """Rank the policies of `runs` and break their success down by axis, difficulty and task."""
+    from robolab_ms.analysis.report import breakdown
     from robolab_ms.analysis.runs import DIFFICULTY_ORDER
 
     episodes = runs.episodes
     ranking = rank_policies(episodes)
     tasks = (episodes.groupby("task", sort=True).first().reset_index()
              .reindex(columns=["task", "scene", "difficulty", "axes", "attributes"]))  # fmt: skip
-    task_rates = {(str(task), str(policy)): rate_of(group)
-                  for (task, policy), group in episodes.groupby(["task", "policy"], sort=True)}  # fmt: skip
+    per_task = breakdown(episodes, "task")
+    task_rates = {(str(row.task), str(row.policy)): Rate(int(row.successes), int(row.episodes))
+                  for row in per_task[["task", "policy", "successes", "episodes"]].itertuples()}  # fmt: skip
     slugs = _unique_slugs(list(tasks["task"]))
-    board = Leaderboard(ranking=ranking, axes=group_rates(episodes, "axes", ("visual", "relational", "procedural")),
+    board = Leaderboard(ranking=ranking, axes=group_rates(episodes, "axis", ("visual", "relational", "procedural")),
                         difficulties=group_rates(episodes, "difficulty", DIFFICULTY_ORDER), tasks=tasks,
-                        task_rates=task_rates, task_pages={t: f"{TASK_DIR}/{slugs[t]}.html" for t in tasks["task"]},
+                        per_task=per_task, task_rates=task_rates,
+                        task_pages={task: f"{TASK_DIR}/{slugs[task]}.html" for task in tasks["task"]},
                         runs=[str(label) for label in episodes["run"].unique()])  # fmt: skip
     task_sets = {str(p): frozenset(g["task"]) for p, g in episodes.groupby("policy")}
     if len(set(task_sets.values())) > 1:
@@ -844,7 +830,7 @@ def task_html(board: Leaderboard, task: str, episodes: pd.DataFrame,
     parts = [f'<p><a href="../{INDEX_HTML}">&larr; {_esc(title)}</a></p>', f"<h1>{_esc(task)}</h1>",
              '<dl class="facts">' + "".join(f"<dt>{_esc(k)}</dt><dd>{_esc(v) or '-'}</dd>" for k, v in facts)
              + "</dl>"]  # fmt: skip
-    table = task_policy_table(episodes, list(board.ranking["policy"]))
+    table = task_policy_table(board.per_task, task, list(board.ranking["policy"]))
     rank_of = dict(zip(board.ranking["policy"], board.ranking["rank"]))
     headers = [("Rank", False), ("Policy", True), ("Success %", False), ("Score", False), ("Score(fail)", False),
                ("Time to success (s)", False), ("SPARC", False), ("Path (cm)", False), ("Speed (cm/s)", False),
@@ -905,28 +891,29 @@ def leaderboard_markdown(board: Leaderboard, episodes: pd.DataFrame, links: dict
         cells += [_md_rate(rates.get(row.policy)) for rates in board.difficulties.values()]
         cells += [_number(row.score), _number(row.score_fail), str(row.episodes), str(row.tasks)]
         rows.append(cells)
-    parts += ["\n## Policies\n", _md_table(headers, rows)]
+    parts += ["\n## Policies\n\n", _md_table(headers, rows)]
     policies = list(board.ranking["policy"])
     rows = [[_md(t.task), _md(_text(t.difficulty)), _md(_text(t.axes).replace(";", ", "))]
             + [_md_rate(board.task_rates.get((t.task, p))) for p in policies]
             for t in board.tasks.itertuples()]  # fmt: skip
-    parts += ["\n## Tasks (success %)\n", _md_table(["Task", "Difficulty", "Axes", *(_md(p) for p in policies)], rows)]
+    task_headers = ["Task", "Difficulty", "Axes", *(_md(policy) for policy in policies)]
+    parts += ["\n## Tasks (success %)\n\n", _md_table(task_headers, rows)]
     headers = ["Policy", "Success %", "Score", "Score(fail)", "Time to success (s)", "SPARC", "Path (cm)",
                "Speed (cm/s)", "Episodes", "Videos"]  # fmt: skip
     for task, group in episodes.groupby("task", sort=True):
-        table = task_policy_table(group, policies)
+        table = task_policy_table(board.per_task, task, policies)
         rows = []
         for row in table.itertuples(index=False):
-            videos = " ".join(f"[{_md(v.label)}{' ✓' if v.success else ''}](<{v.href}>)"
+            videos = " ".join(f"[{_md(v.label)}{' ✓' if v.success else ''}]({quote(v.href, safe='/._-~')})"
                               for v in links.get((row.policy, str(task)), [])) or "-"  # fmt: skip
             rows.append([_md(row.policy), _md_rate(Rate(row.successes, row.episodes)), _number(row.score),
                          _number(row.score_fail), _number(row.time_to_success_s, 1), _number(row.ee_sparc),
                          _number(row.ee_path_cm, 1), _number(row.ee_speed_mean_cm_s, 1), str(row.episodes),
                          videos])  # fmt: skip
-        parts += [f"\n### {_md(task)}\n", _md_table(headers, rows)]
+        parts += [f"\n### {_md(task)}\n\n", _md_table(headers, rows)]
     if board.sim_to_real is not None:
         comparison = board.sim_to_real
-        parts.append("\n## Sim to real\n")
+        parts.append("\n## Sim to real\n\n")
         parts += [f"> {_md(note)}\n\n" for note in comparison.notes]
         parts.append(_md_table(CORRELATION_HEADERS, [[_md(v) for v in row] for row in _correlation_rows(comparison)]))
         rows = [[_md(r.policy), f"{100 * r.sim:.1f} {_interval_percent(r.sim_low, r.sim_high)}",

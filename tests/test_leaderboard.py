@@ -109,7 +109,7 @@ def test_site_in_headless_chromium(site, chromium):
         assert browser.evaluate("Array.from(document.querySelectorAll('#policies td.name')).map(c => c.textContent)"
                                 ) == [policy for policy, _, _ in POLICIES]  # fmt: skip
         href = browser.evaluate("document.querySelector('.videos a').getAttribute('href')")
-        assert href == "../videos/run0/videos/BananaInBowl/seed0.mp4"
+        assert href == "../videos/run0/BananaInBowl/seed0.mp4"
         assert (site / "tasks" / href).resolve().read_bytes()[4:8] == b"ftyp"  # an mp4 inside the site folder
         assert browser.evaluate("document.querySelector('a[href=\"../index.html\"]') !== null")
 
@@ -187,6 +187,7 @@ def test_ranking_ties_share_a_rank_and_fall_back_to_score():
         "task": ["T"] * 8,
         "success": [True, False, True, False, True, False, True, True],
         "score": [1.0, 0.5, 1.0, 0.5, 1.0, 0.0, 1.0, 1.0],
+        "progress": [1.0, 0.5, 1.0, 0.5, 1.0, 0.0, 1.0, 1.0],
     })  # fmt: skip
     ranking = leaderboard.rank_policies(episodes)
     assert list(ranking["policy"]) == ["d", "a", "b", "c"] and list(ranking["rank"]) == [1, 2, 2, 4]
