@@ -238,6 +238,8 @@ def paired_differences(comparison, stem: Path) -> list[Path]:
         axes.errorbar(value, yi, xerr=[[value - lo], [hi - value]], fmt="D" if yi == len(labels) - 1 else "o",
                       color=colour, capsize=3, markersize=4)  # fmt: skip
     axes.axvline(0, color="0.6", linewidth=0.8)
+    axes.axhline(len(labels) - 1.5, color="0.8", linewidth=0.8)
+    axes.set_ylim(-0.7, len(labels) - 0.3)
     axes.set_yticks(y, labels, fontsize=7.5)
     axes.set_xlim(-105, 105)
     axes.set_xlabel(f"success difference {comparison.a} - {comparison.b} (points, 95 % interval)")
