@@ -15,11 +15,12 @@ import argparse
 import json
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
-from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, append_result
+from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult
 
 CONTROL_HZ = 15
 # name -> (low, high) for a continuous parameter, or a list of names for a categorical one
@@ -83,8 +84,7 @@ def write_synthetic_run(out_dir: str | Path, policy: str, tasks: Sequence[str], 
     do not depend on `policy`, so two policies' folders share their parameters episode by episode."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    if (out / EPISODES_FILE).exists():
-        (out / EPISODES_FILE).unlink()
+    lines = []
     for task in tasks:
         for variant in variants:
             for episode_seed in range(episodes_per_task):
@@ -97,8 +97,10 @@ def write_synthetic_run(out_dir: str | Path, policy: str, tasks: Sequence[str], 
                 else:
                     probability = float(success)
                 outcome_rng = np.random.default_rng([*key, _stable_hash(policy)])
-                append_result(out, synthetic_episode(task, episode_seed, probability, outcome_rng, policy, max_steps,
-                                                     drawn, variant))  # fmt: skip
+                episode = synthetic_episode(task, episode_seed, probability, outcome_rng, policy, max_steps, drawn,
+                                            variant)  # fmt: skip
+                lines.append(json.dumps(asdict(episode), sort_keys=True) + "\n")
+    (out / EPISODES_FILE).write_text("".join(lines), encoding="utf-8")  # the results format, written at once
     manifest = {"synthetic": True, "policy": policy, "tasks": list(tasks), "episodes_per_task": episodes_per_task,
                 "seed": seed, "params": {k: list(v) for k, v in (params or {}).items()}}  # fmt: skip
     (out / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
