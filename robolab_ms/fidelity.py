@@ -23,7 +23,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import torch
 
 TEXTURED_TARGET = 0.9
 VOID_TARGET = 0.0
@@ -111,6 +110,7 @@ class FidelityReport:
 
 
 def _fidelity_env_class():
+    import torch
     from mani_skill.envs.sapien_env import BaseEnv
     from mani_skill.utils.structs.types import SimConfig
 
