@@ -652,6 +652,18 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     leaderboard.add_arguments(ranking)
     ranking.set_defaults(run=leaderboard.run)
+
+    from robolab_ms.analysis import sensitivity
+
+    sensitive = commands.add_parser(
+        "sensitivity", parents=[content], help="which varied parameters move a policy's outcome (sbi's MNPE / NPE)",
+        description="RoboLab's sensitivity analysis of episodes run with --vary: a neural posterior (MNPE with "
+        "categorical parameters, else NPE) of the normalised parameters given the outcomes, sampled at an outcome "
+        "(default success = 1); parameters ranked by how far their posterior moves from the prior; marginal and "
+        "pairwise plots. See docs/analysis.md.",
+    )  # fmt: skip
+    sensitivity.add_arguments(sensitive)
+    sensitive.set_defaults(run=sensitivity.run)
     return parser
 
 
