@@ -39,10 +39,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     shown.add_argument("--out", metavar="DIR", help="write every table (CSV and Parquet), analysis.md and the plots "
                        "(PNG and SVG) into DIR")  # fmt: skip
     shown.add_argument("--no-plots", action="store_true", help="with --out: tables only")
-    paired = parser.add_argument_group("paired comparison", "two policies (or run folders) on the same episodes, "
-                                       "matched on task, instruction variant, robot and seed")  # fmt: skip
-    paired.add_argument("--compare", nargs="*", metavar="NAME",
-                        help="A B: policy names (or run folder names); no names: the two policies of the runs")  # fmt: skip
+    paired = parser.add_argument_group("paired comparison", "two policies on the same episodes, matched on task, "
+                                       "instruction variant, robot and seed")  # fmt: skip
+    paired.add_argument("--compare", nargs="*", metavar="POLICY",
+                        help="A B: the two policies (no names: the two policies of the runs)")  # fmt: skip
     paired.add_argument("--resamples", type=int, default=2000,
                         help="bootstrap resamples of the tasks for the overall interval (default: 2000)")  # fmt: skip
     paired.add_argument("--seed", type=int, default=0, help="seed of the bootstrap (default: 0)")

@@ -52,31 +52,23 @@ def resolve_pair(episodes: pd.DataFrame, names: Sequence[str]) -> tuple[str, str
     if not names:
         raise RoboLabError(f"--compare without names needs exactly two policies; these runs hold {len(policies)} "
                            f"({', '.join(policies)}): give two, e.g. --compare {' '.join(policies[:2])}")  # fmt: skip
-    raise RoboLabError(f"--compare takes two names (policies or run folders), got {len(names)}: {' '.join(names)}")
+    raise RoboLabError(f"--compare takes two policy names, got {len(names)}: {' '.join(names)}")
 
 
-def side_episodes(episodes: pd.DataFrame, name: str) -> pd.DataFrame:
-    """The episodes of one side: the policy `name`, else the run folder `name` (for two runs of one policy)."""
-    if name in set(episodes["policy"]):
-        chosen = episodes[episodes["policy"] == name]
-    elif name in set(episodes["run"]):
-        chosen = episodes[episodes["run"] == name]
-    else:
-        known = set(episodes["policy"]) | set(episodes["run"])
-        raise RoboLabError(f"--compare {name}: neither a policy nor a run folder of these runs. "
-                           f"{did_you_mean(name, known)}")  # fmt: skip
-    if chosen.duplicated(MATCH_KEYS).any():
-        policies = ", ".join(sorted(chosen["policy"].unique()))
-        raise RoboLabError(f"--compare {name}: it holds several episodes per task, variant, robot and seed (policies "
-                           f"{policies}); name one policy")  # fmt: skip
+def side_episodes(episodes: pd.DataFrame, policy: str) -> pd.DataFrame:
+    """The episodes of one side of the comparison: those of `policy`."""
+    chosen = episodes[episodes["policy"] == policy]
+    if chosen.empty:
+        known = set(episodes["policy"])
+        raise RoboLabError(f"--compare {policy}: not a policy of these runs. {did_you_mean(policy, known)}")
     return chosen
 
 
 def pair_outcomes(episodes: pd.DataFrame, a: str, b: str) -> tuple[pd.DataFrame, int, int]:
     """Matched pairs (MATCH_KEYS, `success_a`, `success_b`) and how many episodes of A and of B found no partner."""
+    if a == b:
+        raise RoboLabError(f"--compare {a} {b}: name two different policies")
     first, second = side_episodes(episodes, a), side_episodes(episodes, b)
-    if first.index.equals(second.index):
-        raise RoboLabError(f"--compare {a} {b}: both name the same episodes; compare two different policies or runs")
     pairs = first[MATCH_KEYS + ["success"]].merge(second[MATCH_KEYS + ["success"]], on=MATCH_KEYS,
                                                    suffixes=("_a", "_b"))  # fmt: skip
     if pairs.empty:

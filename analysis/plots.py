@@ -31,7 +31,8 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     plt.rcParams.update({"font.size": 9, "axes.titlesize": 10, "axes.spines.top": False,
-                         "axes.spines.right": False, "svg.fonttype": "none"})  # fmt: skip
+                         "axes.spines.right": False, "svg.fonttype": "none",
+                         "text.parse_math": False})  # fmt: skip
     return plt
 
 

@@ -5,7 +5,7 @@ Tables group the episodes of `load_runs` (one row per episode) by a *grouping*, 
 | grouping | column it reads | notes |
 |---|---|---|
 | `task` | `task` | rows also carry the task's scene, difficulty, difficulty score, axes, attributes |
-| `axis`, `attribute` | `axes`, `attributes` | `;`-lists: an episode counts once under each of its task's axes / attributes |
+| `axis`, `attribute` | `axes`, `attributes` | `;`-lists: an episode counts once under each of its values |
 | `difficulty` | `difficulty` | simple, moderate, complex in that order |
 | `scene`, `variant`, `robot`, `run`, `condition` | `scene`, `instruction_variant`, `robot`, `run`, `condition` | |
 | `num_objects` | `num_objects` | bodies in the task's scene |
@@ -162,11 +162,6 @@ def parameter_columns(episodes: pd.DataFrame) -> list[str]:
         column for column in episodes.columns
         if column not in fixed and not column.startswith(("objects_", "_")) and episodes[column].nunique() > 1
     )  # fmt: skip
-
-
-def task_scores(episodes: pd.DataFrame) -> pd.DataFrame:
-    """The per-task table (`breakdown(episodes, "task")`), for plots of tasks."""
-    return breakdown(episodes, "task")
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -11,7 +11,7 @@ from robolab_ms.analysis.analyze import GROUPING_NAMES
 from robolab_ms.analysis.paired import compare_policies, mcnemar_exact, paired_task_table
 from robolab_ms.analysis.report import GROUPINGS, breakdown, filter_episodes, parameter_columns
 from robolab_ms.analysis.runs import load_runs
-from robolab_ms.analysis.synthetic import LIGHT_SPACE, light_dependent_success, write_synthetic_run
+from robolab_ms.analysis.synthetic import LIGHT_SPACE, write_synthetic_run
 from robolab_ms.cli import main
 from robolab_ms.errors import RoboLabError
 
