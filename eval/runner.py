@@ -320,8 +320,11 @@ def _write_manifest(out_dir: Path, policy: Policy, config: EvalConfig) -> None:
 
 def rerun_command(policy: Policy, config: EvalConfig, out_dir: Path) -> str:
     """A `robolab eval` command line that runs exactly these episodes again (into `out_dir`)."""
-    words = ["robolab", "eval", "--policy", policy.name, "--task", *config.tasks, "--instruction", config.instruction,
-             "--seed", str(config.first_seed), "--out", str(out_dir)]  # fmt: skip
+    words = ["robolab", "eval", "--policy", policy.made_as or policy.name]
+    if policy.made_as:
+        words += ["--policy-name", policy.name]
+    words += ["--task", *config.tasks, "--instruction", config.instruction, "--seed", str(config.first_seed), "--out",
+              str(out_dir)]  # fmt: skip
     if config.episodes_adaptive:
         words += ["--episodes-adaptive", str(config.episodes_adaptive), "--ci-width", f"{config.ci_width:g}"]
     else:

@@ -222,7 +222,17 @@ def _policy_options(args: argparse.Namespace) -> PolicyOptions:
     return PolicyOptions(host=args.host, port=args.port, open_loop_horizon=horizon, timeout=timeout,
                          replay_from=Path(args.replay_from) if args.replay_from else None,
                          replay_policy=args.replay_policy, action_horizon=getattr(args, "action_horizon", 10),
-                         gr00t_version=getattr(args, "gr00t_version", "n1.6"))  # fmt: skip
+                         gr00t_version=getattr(args, "gr00t_version", "n1.6"),
+                         results_name=_results_name(getattr(args, "policy_name", None)))  # fmt: skip
+
+
+def _results_name(name: str | None) -> str | None:
+    """--policy-name, checked: results, tables and the leaderboard show it."""
+    if name is None:
+        return None
+    if not name.strip() or any(ch in name for ch in "\n\r\t"):
+        raise RoboLabError(f"--policy-name {name!r}: give a non-blank name on one line, e.g. --policy-name pi05")
+    return name
 
 
 def _add_policy_options(parser: argparse.ArgumentParser, default_host: str, client: bool = True) -> None:
@@ -521,6 +531,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     evaluate.add_argument("--policy", default="random",
                           help="random, hold, oracle, replay, openpi, gr00t, or module.path:factory (default: random)")  # fmt: skip
+    evaluate.add_argument("--policy-name", metavar="NAME",
+                          help="file the results under NAME instead of the policy's own name, e.g. pi05 and pi0 for "
+                          "two openpi servers, so `robolab analyze` and `leaderboard` tell them apart")  # fmt: skip
     evaluate.add_argument("--task", nargs="+", metavar="TASK", help=task_help + "; `all` for every task")
     evaluate.add_argument("--episodes", type=int, default=10, help="episodes per task (default: 10)")
     evaluate.add_argument("--out", default="results/latest", help="results folder (default: results/latest)")

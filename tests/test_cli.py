@@ -64,3 +64,16 @@ def test_eval_runs_the_droid_robot_by_default_and_names_an_unknown_one(tmp_path)
     assert json.loads((tmp_path / "episodes.jsonl").read_text().splitlines()[0])["robot"] == "droid"
     result = run("eval", "--task", "BananaInBowl", "--robot", "pandaa", "--out", str(tmp_path))
     assert result.returncode == 2 and "Did you mean 'panda'" in result.stderr, result.stderr
+
+
+def test_policy_name_files_results_under_another_name(tmp_path):
+    out = tmp_path / "named"
+    result = run("eval", "--policy", "hold", "--policy-name", "hold-v2", "--task", "BananaInBowl", "--episodes", "1",
+                 "--max-steps", "3", "--out", str(out))  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    episode = json.loads((out / "episodes.jsonl").read_text())
+    assert episode["policy"] == "hold-v2"
+    rerun = json.loads((out / "manifest.json").read_text())["rerun"]
+    assert "--policy hold --policy-name hold-v2" in rerun
+    blank = run("eval", "--policy", "hold", "--policy-name", " ", "--task", "BananaInBowl", "--out", str(tmp_path))
+    assert blank.returncode == 2 and "--policy-name" in blank.stderr and "Traceback" not in blank.stderr

@@ -42,6 +42,8 @@ class PolicyOptions:
     gr00t_version: the GR00T server's request format: `n1.6` (data = {"observation": ..., "options": ...},
         replies [actions, info]; GR00T N1.6's server with its sim policy wrapper) or `n1.5` (data = the
         observation, replies the actions).
+    results_name: the name results are filed under instead of the policy's own (e.g. `pi05` for an openpi
+        server), so runs of two servers of one protocol can be compared and ranked.
     """
 
     host: str = "127.0.0.1"
@@ -52,6 +54,7 @@ class PolicyOptions:
     replay_policy: str | None = None
     action_horizon: int = 10
     gr00t_version: str = "n1.6"
+    results_name: str | None = None
 
 
 class PolicyError(RoboLabError):
@@ -79,6 +82,8 @@ class Policy:
 
     Attributes:
         name: the name results are filed under.
+        made_as: the name `make_policy` made it by (`--policy`), when results are filed under another name
+            (`--policy-name`); None otherwise.
         needs_images: whether `act` reads camera images. The runner then makes the env with RGB observations and
             passes DROID's keys (robolab_ms.envs.DroidObservation: `exterior_image_1_left`, `wrist_image_left`,
             `joint_position`, `gripper_position`, `eef_pose`, `prompt`, each with a leading env dimension);
@@ -91,6 +96,7 @@ class Policy:
     """
 
     name: str = "policy"
+    made_as: str | None = None
     needs_images: bool = True
     privileged: bool = False
     endpoint: str = "in-process"
@@ -206,7 +212,11 @@ def make_policy(name: str, options: PolicyOptions | None = None) -> Policy:
     if ":" in name:
         from robolab_ms.policies.lerobot import load_lerobot_policy
 
-        return load_lerobot_policy(name)
-    if name not in POLICIES:
+        policy = load_lerobot_policy(name)
+    elif name not in POLICIES:
         raise UnknownNameError("policy", name, [*POLICIES, "module.path:factory"])
-    return POLICIES[name](options)
+    else:
+        policy = POLICIES[name](options)
+    if options.results_name is not None:
+        policy.made_as, policy.name = name, options.results_name
+    return policy
