@@ -60,6 +60,12 @@ def test_in_container_outside_of_enclosed(env):
     assert check(env, "in_container", ["red"], container="bin") == [False]
     assert check(env, "outside_of", ["red"], container="bin") == [True]
     assert check(env, "outside_of_and_on_surface", ["red"], container="bin") == [True]
+    assert check(env, "outside_of_and_on_surface", ["red"], container="bin", max_tilt=0.3) == [True]
+    on_its_side = (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0)  # knocked over: 90 deg about x
+    put(env, "red", (BIN_CENTRE[0], BIN_CENTRE[1] + 0.19, 0.026), on_its_side)
+    settle(env)
+    assert check(env, "outside_of_and_on_surface", ["red"], container="bin") == [True]
+    assert check(env, "outside_of_and_on_surface", ["red"], container="bin", max_tilt=0.3) == [False]
 
 
 def test_above_the_rim_is_in_the_container_but_not_enclosed(env):
@@ -166,6 +172,37 @@ def test_grasped_released_picked_up(env):
     assert check(env, "grasped", ["blue"]) == [False]
     assert check(env, "released", ["blue"]) == [True]
     assert check(env, "picked_up", ["blue"]) == [False]
+
+
+def test_require_picked_up_counts_only_what_the_robot_lifted(env):
+    """The flag latches `picked_up` per object: a block lying outside the bin does not count until the gripper has
+    lifted it, and still counts once it is let go of and lies on the table again."""
+    condition = Condition("outside_of_and_on_surface", ("blue",), {"container": "bin", "surface": "table"},
+                          params=dict(PREDICATES["outside_of_and_on_surface"].params), require_picked_up=True)
+    TESTED.add("require_picked_up")
+
+    def holds() -> bool:
+        env.eval_context.refresh(env.elapsed_steps)
+        return per_object(env.eval_context, condition)[0].tolist() == [True]
+
+    put(env, "red", (0.8, -0.15, 0.026))  # out of the way below the gripper
+    settle(env)
+    assert check(env, "outside_of_and_on_surface", ["blue"], container="bin") == [True]
+    assert not holds()  # there, but never picked up
+    block = env.objects["blue"]
+    tcp = env.agent.tcp.pose
+    block._bodies[0].disable_gravity = True
+    put(env, "blue", tcp.p[0].tolist(), tuple(tcp.q[0].tolist()))
+    settle(env, steps=6, gripper=1.0)
+    block._bodies[0].disable_gravity = False
+    settle(env, steps=6, gripper=1.0)
+    assert check(env, "picked_up", ["blue"]) == [True]
+    assert not holds()  # held above the table: not on it
+    for _ in range(40):  # let go: it falls onto the table, outside the bin
+        settle(env, steps=1, gripper=0.0)
+        holds()
+    assert check(env, "outside_of_and_on_surface", ["blue"], container="bin") == [True]
+    assert holds()
 
 
 def test_placed_in_container_in_order(env):

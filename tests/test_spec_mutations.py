@@ -61,11 +61,15 @@ VALID: dict[str, dict[str, set[str]]] = {
         "success[].distance": OPTIONAL,
         "success[].tolerance": OPTIONAL,
         "success[].order": OPTIONAL,
+        "success[].max_tilt": OPTIONAL,
+        "success[].require_picked_up": OPTIONAL,
         "subtasks[].steps[].weight": OPTIONAL,
         "subtasks[].steps[].require_contact_with": OPTIONAL,
         "subtasks[].steps[].require_gripper_detached": OPTIONAL,
         "subtasks[].steps[].distance": OPTIONAL,
         "subtasks[].steps[].tolerance": OPTIONAL,
+        "subtasks[].steps[].max_tilt": OPTIONAL,
+        "subtasks[].steps[].surface": OPTIONAL,  # default: the table
     },
     "scene": {
         "description": OPTIONAL | TEXT_ANYTHING,

@@ -48,7 +48,8 @@ class PredicateInfo:
 
 
 PREDICATES: dict[str, PredicateInfo] = {}
-FLAGS = {"require_contact_with": False, "require_gripper_detached": False}
+FLAGS = {"require_contact_with": False, "require_gripper_detached": False, "require_picked_up": False}
+PICKED_UP_DISTANCE = 0.05  # m: require_picked_up asks for picked_up(object, table, distance=this) at some step
 
 
 def predicate(
@@ -128,12 +129,17 @@ def outside_of(ctx: EvalContext, objects: list[str], container: str, tolerance: 
     return ~_inside_hull(ctx, objects, container, tolerance, open_top=True)
 
 
-@predicate("outside_of_and_on_surface", references={"container": None, "surface": TABLE}, tolerance=0.0)
+@predicate("outside_of_and_on_surface", references={"container": None, "surface": TABLE}, tolerance=0.0,
+           max_tilt=math.pi)  # fmt: skip
 def outside_of_and_on_surface(
-    ctx: EvalContext, objects: list[str], container: str, surface: str, tolerance: float
+    ctx: EvalContext, objects: list[str], container: str, surface: str, tolerance: float, max_tilt: float
 ) -> torch.Tensor:
-    """Out of the container and resting on `surface` (in contact with it)."""
-    return outside_of(ctx, objects, container, tolerance) & in_contact(ctx, objects, surface)
+    """Out of the container and resting on `surface` (in contact with it); with `max_tilt` (rad) below pi, also
+    standing within that angle of upright: set down, not knocked over."""
+    holds = outside_of(ctx, objects, container, tolerance) & in_contact(ctx, objects, surface)
+    if max_tilt < math.pi:
+        holds = holds & upright(ctx, objects, max_tilt)
+    return holds
 
 
 @predicate("placed_in_container_in_order", references={"container": None}, group=True, tolerance=0.0)
@@ -270,7 +276,19 @@ def _per_object(ctx: EvalContext, condition: Condition) -> torch.Tensor:
         holds = holds & in_contact(ctx, objects, contact_with)
     if condition.require_gripper_detached:
         holds = holds & released(ctx, objects)
+    if condition.require_picked_up:
+        holds = holds & was_picked_up(ctx, objects)
     return holds
+
+
+def was_picked_up(ctx: EvalContext, objects: list[str]) -> torch.Tensor:
+    """Whether each object has been picked up off the table (`picked_up`, PICKED_UP_DISTANCE) at some step of this
+    episode so far: set down by the robot, not knocked or swept there."""
+    lifted = picked_up(ctx, objects, TABLE, PICKED_UP_DISTANCE)
+    seen = ctx.memory(("picked_up_once", tuple(objects)),
+                      lambda: torch.zeros(ctx.num_envs, len(objects), dtype=torch.bool, device=ctx.device))  # fmt: skip
+    seen |= lifted
+    return seen.clone()
 
 
 def combine(holds: torch.Tensor, logical: str, k: int) -> torch.Tensor:

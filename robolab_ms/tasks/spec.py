@@ -49,6 +49,7 @@ class Condition:
     require_contact_with: bool = False
     require_gripper_detached: bool = False
     params: dict[str, Any] = field(default_factory=dict)
+    require_picked_up: bool = False  # the object was picked up at some step (latched): not knocked into place
 
 
 @dataclass(frozen=True)
@@ -143,6 +144,7 @@ PARAM_LIMITS: dict[str, tuple[float, float, bool, str]] = {
     "max_dz": (0.0, 10.0, True, "m"),
     "max_speed": (0.0, 10.0, True, "m/s"),
     "upright.tolerance": (0.0, math.pi, True, "rad"),
+    "max_tilt": (0.0, math.pi, True, "rad"),
     "on_center.tolerance": (0.0, 0.5, True, "m"),
 }
 EVENT_LIMITS: dict[str, tuple[float, float, bool, str]] = {
@@ -219,6 +221,7 @@ def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (
         require_contact_with=contact,
         require_gripper_detached=fields.get("require_gripper_detached", bool, False),
         params=params,
+        require_picked_up=fields.get("require_picked_up", bool, False),
     )
 
 

@@ -220,9 +220,10 @@ def _apply(env: Any, bodies: dict[str, _Body]) -> None:
 def _geometric_conditions(env: Any) -> list:
     """The success conditions with their contact flags relaxed (None when no condition has a flag)."""
     conditions = env.task_spec.success
-    if not any(c.require_contact_with or c.require_gripper_detached for c in conditions):
+    if not any(c.require_contact_with or c.require_gripper_detached or c.require_picked_up for c in conditions):
         return []
-    return [replace(c, require_contact_with=False, require_gripper_detached=False) for c in conditions]
+    return [replace(c, require_contact_with=False, require_gripper_detached=False, require_picked_up=False)
+            for c in conditions]  # fmt: skip
 
 
 def _solved(env: Any, conditions: Any) -> bool:
