@@ -511,7 +511,7 @@ def fit_posterior_samples(theta: np.ndarray, categories: Sequence[int], x: np.nd
     finally:
         torch.set_num_threads(previous_threads)
     epochs_trained = int(inference.summary["epochs_trained"][-1]) if inference.summary.get("epochs_trained") else 0
-    return drawn.numpy().astype(float), method.__name__, epochs_trained, fit_seconds
+    return drawn.numpy().astype(float), "MNPE" if categories else "NPE", epochs_trained, fit_seconds
 
 
 def kde_density(points: np.ndarray, data: np.ndarray, chunk: int = 512) -> np.ndarray:
@@ -685,16 +685,17 @@ def to_markdown(result: SensitivityResult, timing: bool = False) -> str:
     """The ranking as Markdown, with what was fitted and at which outcome (and the fit's seconds with `timing`:
     left out of the file, so the same analysis writes the same file)."""
     outcome = ", ".join(f"{name} = {value:g}" for name, value in result.x_o.items())
-    reference = "the uniform prior (reweighted)" if result.weights is not None else "the episodes' drawn values"
+    reference = "the uniform prior (samples reweighted)" if result.weights is not None else "the episodes' drawn values"
     null = result.null_fits > 0
     lines = [
         f"Sensitivity of {', '.join(result.observations)} to the varied parameters: {result.method}, "
         f"{result.episodes} episodes, {result.epochs_trained} of {result.epochs} epochs, {len(result.samples)} "
         f"posterior samples at {outcome}, seed {result.seed}.",
         "",
-        f"shift: largest change of probability the outcome makes to one set of values, against {reference} (0 "
-        "= none, 1 = no overlap; Kolmogorov-Smirnov for numbers, total variation for categories). Mean and 95 % "
-        "interval on the normalised scale (0 = range low, 1 = range high), then in the parameter's units.",
+        f"shift: the largest change of probability the outcome makes to one set of values, measured against "
+        f"{reference}: 0 = none, 1 = no overlap (Kolmogorov-Smirnov for numbers, total variation for categories). "
+        "Mean and 95 % interval on the normalised scale (0 = range low, 1 = range high), then in the parameter's "
+        "units.",
     ]
     if null:
         lines.append(f"null: the largest shift of the parameter in {result.null_fits} fit(s) on outcomes shuffled "
@@ -742,8 +743,8 @@ def _bins(parameter: Parameter, count: int = 25) -> np.ndarray:
     return np.linspace(0.0, 1.0, count + 1)
 
 
-def _shift(result: SensitivityResult, name: str) -> float:
-    return float(result.table.loc[result.table["parameter"] == name, "shift"].iloc[0])
+def _shift(result: SensitivityResult, name: str, column: str = "shift") -> float:
+    return float(result.table.loc[result.table["parameter"] == name, column].iloc[0])
 
 
 def plot_marginals(result: SensitivityResult, out_stem: Path) -> list[Path]:
@@ -763,10 +764,9 @@ def plot_marginals(result: SensitivityResult, out_stem: Path) -> list[Path]:
         bins = _bins(parameter)
         panel.hist(result.samples[:, i], bins=bins, weights=weights, density=True, color="#3b75af", alpha=0.65,
                    label="posterior")  # fmt: skip
-        if result.weights is not None:
-            level = 1.0 if parameter.kind == "continuous" else 1.0 / len(parameter.categories) / (bins[1] - bins[0])
-            panel.hist(bins[:-1], bins=bins, weights=np.full(len(bins) - 1, level * (bins[1] - bins[0])),
-                       histtype="step", color="black", linewidth=1.4, label="prior (uniform)")  # fmt: skip
+        if result.weights is not None:  # one value per bin: the uniform density
+            panel.hist((bins[:-1] + bins[1:]) / 2, bins=bins, density=True, histtype="step", color="black",
+                       linewidth=1.4, label="prior (uniform)")  # fmt: skip
         else:
             panel.hist(result.theta[:, i], bins=bins, density=True, histtype="step", color="black", linewidth=1.4,
                        label="prior (episodes' draws)")  # fmt: skip
@@ -774,7 +774,9 @@ def plot_marginals(result: SensitivityResult, out_stem: Path) -> list[Path]:
         panel.set_xticks(ticks, labels, rotation=30 if parameter.kind == "categorical" else 0, fontsize=8)
         panel.set_xlim(*_axis_limits(parameter))
         scale = ", log scale" if parameter.log else ""
-        panel.set_title(f"{parameter.name}\nshift {_shift(result, parameter.name):.2f}{scale}", fontsize=9)
+        null = f" (null {_shift(result, parameter.name, 'null_shift'):.2f})" if result.null_fits else ""
+        panel.set_title(f"{parameter.name}\nshift {_shift(result, parameter.name):.2f}{null}{scale}", fontsize=9)
+        panel.set_ylabel("density" if parameter.kind == "continuous" else "probability", fontsize=8)
         panel.tick_params(axis="y", labelsize=8)
     for panel in list(axes.flat)[len(order):]:
         panel.axis("off")
@@ -832,7 +834,8 @@ def _save(figure: Any, out_stem: Path) -> list[Path]:
 
     paths = [out_stem.with_suffix(".png"), out_stem.with_suffix(".svg")]
     figure.savefig(paths[0], dpi=90)
-    figure.savefig(paths[1], metadata={"Date": None})  # no date: the same analysis writes the same file
+    with plt.rc_context({"svg.hashsalt": "robolab-sensitivity"}):  # fixed ids and no date: the same analysis
+        figure.savefig(paths[1], metadata={"Date": None})  # writes the same file
     plt.close(figure)
     return paths
 
