@@ -131,6 +131,8 @@ def expectation(kind: str, data: dict, path: str, mutation: str, default: str) -
     if kind == "task" and matches("success[].groups.*", path) and mutation == "missing":
         condition = data["success"][steps[1]]
         return None if len(condition["groups"]) > 1 and "objects" not in condition else default  # fewer groups
+    if kind == "task" and matches("subtasks[].steps[].groups.*", path) and mutation == "missing":
+        return path.rsplit(".", 1)[0]  # the stage's objects left without their group: the error names `groups`
     if kind == "task" and matches("success[].tolerance", path) and mutation == "zero":
         predicate = data["success"][steps[1]]["predicate"]
         return None if PREDICATES[predicate].params["tolerance"] == 0.0 else default  # 0 where it is the default

@@ -291,3 +291,33 @@ def test_every_parameter_and_event_threshold_has_a_range_holding_its_default():
                 ranges.append((f"{name}.{key}", PARAM_LIMITS.get(f"{name}.{key}") or PARAM_LIMITS[key], default))
     for where, (low, high, above, _), default in ranges:
         assert (low < default if above else low <= default) and default <= high, where
+
+
+def test_every_robolab_task_has_robolabs_subtask_count_and_difficulty():
+    """Subtasks (all: object groups, any: 1, choose K: K, summed over stages), score (subtasks + the largest skill
+    weight) and label equal RoboLab-120's task table for every shipped task that is one of RoboLab's."""
+    import csv
+
+    with open(Path(__file__).parent / "fixtures" / "robolab120" / "tasks.csv", newline="") as file:
+        reference = {row["task"]: row for row in csv.DictReader(file)}
+    compared, wrong = 0, []
+    for spec in load_all_tasks():
+        row = reference.get(spec.name)
+        if row is None:
+            continue
+        compared += 1
+        ours = (spec.scene.name, spec.num_subtasks, spec.difficulty_score, spec.difficulty)
+        theirs = (row["scene"], int(row["num_subtasks"]), int(row["difficulty_score"]), row["difficulty_label"])
+        if ours != theirs:
+            wrong.append(f"{spec.name}: ours {ours}, RoboLab's {theirs}")
+    assert compared >= 76 and not wrong, "\n".join(wrong)
+
+
+def test_a_groups_in_containers_stage_counts_its_containers(tmp_path):
+    """RoboLab counts the object groups of groups_in_containers: one per container, however many objects it holds."""
+    path = write(tmp_path, "Sort", TASK.format(name="Sort", predicate="in_container", obj="banana").replace(
+        "scene: banana_bowl", "scene: rubiks_cube_banana_bowl").replace(
+        "  - {predicate: in_container, objects: [banana], container: bowl}",
+        "  - {predicate: groups_in_containers, groups: {bowl: [banana, rubiks_cube]}}"))  # fmt: skip
+    spec = read_task(path)
+    assert len(spec.subtasks[0].objects) == 2 and spec.num_subtasks == 1

@@ -62,6 +62,14 @@ class SubtaskStage:
     logical: str = "all"
     k: int = 1
 
+    def object_groups(self) -> int:
+        """RoboLab's object groups in this stage: a `groups_in_containers` step groups the stage's objects by their
+        container (one group per container); otherwise each object is a group of its own."""
+        for step in self.steps:
+            if "groups" in step.params:
+                return sum(1 for members in step.params["groups"].values() if set(members) & set(self.objects))
+        return len(self.objects)
+
 
 @dataclass(frozen=True)
 class TaskSpec:
@@ -88,8 +96,9 @@ class TaskSpec:
 
     @property
     def num_subtasks(self) -> int:
-        """Subtasks summed over stages: a stage counts its groups (`all`), 1 (`any`) or K (`choose`)."""
-        return sum({"all": len(s.objects), "any": 1, "choose": s.k}[s.logical] for s in self.subtasks)
+        """Subtasks summed over stages (RoboLab's count): a stage counts its object groups (`all`; see
+        SubtaskStage.object_groups), 1 (`any`) or K (`choose`)."""
+        return sum({"all": s.object_groups(), "any": 1, "choose": s.k}[s.logical] for s in self.subtasks)
 
     @property
     def difficulty_score(self) -> int:
@@ -193,6 +202,12 @@ def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (
                 if obj not in homes:
                     raise fields.error(f"objects[{index}]", f"'{obj}' is in none of the groups",
                                        "Add it to a group of `groups`, or leave `objects` out")  # fmt: skip
+    elif "groups" in params:  # a subtask step: the stage's objects
+        homes = {member for members in params["groups"].values() for member in members}
+        for obj in objects:
+            if obj not in homes:
+                raise fields.error("groups", f"'{obj}', an object of this stage, is in none of the groups",
+                                   "Add it to a group")  # fmt: skip
     if len(objects) < MIN_OBJECTS.get(name, 1):
         raise fields.error("objects", f"has {len(objects)} object(s); '{name}' needs at least {MIN_OBJECTS[name]}",
                            "Name more objects")  # fmt: skip
