@@ -1,8 +1,9 @@
 """The oracle: a privileged policy that solves tasks from the simulator's true state with a motion planner.
 
 It reads the task's success condition and the true object poses, turns them into pick-and-place jobs (which
-object, where to put it), plans each move with mplib (straight-line screw motions, RRT-Connect when a straight
-line fails) and replays the plan as the same 8-D DROID actions a learned policy sends: 7 absolute joint targets
+object, where to put it), plans each move with mplib (straight lines through inverse-kinematics waypoints a
+centimetre apart, mplib's screw motion at the edge of the workspace, RRT-Connect when no straight line is free),
+grasps top-down where the hand clears the neighbours (from a grid of ray casts) and replays the plan as the same 8-D DROID actions a learned policy sends: 7 absolute joint targets
 and the gripper (0 open, 1 closed) at the control rate. It plans one move at a time from the state it finds, so a
 slipped grasp is noticed at the next move. When it cannot go on it raises OracleFailure saying why.
 """
@@ -32,7 +33,30 @@ SETTLE_STEPS = 3  # control steps held at the end of every move, for the PD cont
 BACK_OFF = 0.06  # m the hand backs away (and rises) after setting an object down upright
 PART_RADIUS = 0.03  # m: the points around a grasped part that decide its closing direction and height
 GRASP_DEPTH = 0.03  # m below an object's top where the TCP (the middle of the finger pads) closes ...
-FINGERTIP_CLEARANCE = 0.025  # ... but at least this high above its bottom, so the fingertips stay off the table
+FINGERTIP_CLEARANCE = 0.004  # ... but the closed fingertips at least this high above its bottom (off the table)
+# How far the pads' lower ends reach below the TCP once closed on a part this wide (m): the Robotiq 2F-85's pads
+# swing down as they close (measured on the droid robot); a Panda's fingers reach less far, so this is on the safe side.
+PAD_DROP_WIDTHS = (0.0, 0.024, 0.036, 0.047, 0.057, 0.067, 0.077, 0.086)
+PAD_DROP = (0.020, 0.020, 0.019, 0.0173, 0.0153, 0.0127, 0.0096, 0.0061)
+MAX_GRASP_WIDTH = 0.078  # m: the widest part the open fingers (8.6 cm apart) go round with some room
+SECTION_STEP = 0.005  # m between the heights at which a part's width is measured
+GRASP_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees from the narrowest closing direction
+MAX_SHIFT_SHARE = 0.3  # a grasp moves along a part by at most this share of its length
+CLASH_COST = 0.1  # m of shift that a metre of neighbour in the hand's way is worth (the hand pushes it aside) ...
+BODY_CLASH_TOLERANCE = 0.08  # ... as long as it rises at most this far into the space of the gripper's body
+WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is worth (a narrow hold is firm) ...
+FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
+TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
+GRASP_SHIFTS = (0.0, 0.015, -0.015, 0.03, -0.03, 0.045, -0.045, 0.06, -0.06)  # m along the part from its middle
+MIN_SLAB_POINTS = 12  # the fewest object points between the fingers that tell the width they close on
+FINGER_HALF_WIDTH = 0.015  # m: object points this near the fingers' plane are between them
+# The hand coming straight down to a top-down grasp, as boxes in its own frame: half extent along the hand's x,
+# half extent along the closing direction, and how far below the TCP the box reaches (negative: above it).
+HAND_PARTS = ((0.014, 0.075, 0.008), (0.037, 0.042, -0.053), (0.06, 0.06, -0.155))
+HAND_MARGIN = 0.004  # m kept between the hand and anything else on the way down
+OBSTACLE_RADIUS = 0.2  # m around a grasp where the tops of other objects are looked at, on a grid ...
+OBSTACLE_CELL = 0.008  # ... of this spacing
+OBSTACLE_CEILING = 0.8  # m: rays looking for objects start this high
 IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
 RIM_DEPTH = 0.02  # m the TCP reaches into a lying container's opening for a rim grasp ...
 RIM_APPROACH = 0.06  # ... after moving in straight from this far outside it
@@ -45,6 +69,9 @@ FLANGE_LINK = "panda_link8"
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
 PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
 JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-collision along a joint path
+STRAIGHT_STEP = 0.01  # m between the waypoints of a straight move, each solved by inverse kinematics ...
+STRAIGHT_TURN = 0.05  # ... or rad of turn between them
+MAX_JOINT_JUMP = 0.25  # rad a joint may change between two waypoints of a straight move (more: a flip, not a line)
 
 
 class OracleFailure(RoboLabError):
@@ -251,7 +278,9 @@ class OraclePolicy(Policy):
         """Joint paths of consecutive straight moves through TCP `poses` from `qpos`, or None if one fails."""
         paths, current = [], qpos.copy()
         for pose in poses:
-            result = self._planner.plan_screw(self._flange_target(pose), current, time_step=1.0 / self.env.control_freq)
+            result = self._plan_straight(self._flange_target(pose), current)
+            if result["status"] != "Success":  # at the edge of the workspace: within a centimetre of the pose
+                result = self._planner.plan_screw(self._flange_target(pose), current, time_step=self._time_step)
             if result["status"] != "Success":
                 return None
             paths.append(np.asarray(result["position"]))
@@ -305,7 +334,9 @@ class OraclePolicy(Policy):
         """Queue the actions of one move to the TCP pose [x, y, z, qw, qx, qy, qz]; returns the final joints."""
         planner, step = self._planner, 1.0 / self.env.control_freq
         pose = self._flange_target(pose)
-        result = planner.plan_screw(pose, qpos, time_step=step) if straight else {"status": "not tried"}
+        result = self._plan_straight(pose, qpos) if straight else {"status": "not tried"}
+        if straight and result["status"] != "Success":  # at the edge of the workspace: a straight line that may miss
+            result = planner.plan_screw(pose, qpos, time_step=step)  # the pose by a centimetre, or none
         if result["status"] != "Success":
             status, goals = planner.IK(pose, qpos)
             if status != "Success":  # near the edge of the workspace: try harder
@@ -314,6 +345,41 @@ class OraclePolicy(Policy):
         if result["status"] != "Success":
             raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
         return self._queue(qpos, result["position"])
+
+    @property
+    def _time_step(self) -> float:
+        return 1.0 / self.env.control_freq
+
+    def _plan_straight(self, flange_pose: np.ndarray, qpos: np.ndarray) -> dict[str, Any]:
+        """A timed joint path that moves the flange along a straight line (and the shortest turn) to `flange_pose`:
+        inverse kinematics solved from the previous waypoint every STRAIGHT_STEP metres (or STRAIGHT_TURN radians),
+        so the path ends on the pose to within a millimetre; fails on a joint limit, a jump or self-collision."""
+        from scipy.spatial.transform import Rotation, Slerp
+
+        planner = self._planner
+        model, flange = planner.pinocchio_model, planner.link_name_2_idx[FLANGE_LINK]
+        model.compute_forward_kinematics(qpos)
+        start = np.asarray(model.get_link_pose(flange))
+        turns = Rotation.from_quat([np.roll(start[3:], -1), np.roll(flange_pose[3:], -1)])  # (x, y, z, w) order
+        angle = (turns[0].inv() * turns[1]).magnitude()
+        distance = float(np.linalg.norm(flange_pose[:3] - start[:3]))
+        count = max(1, int(np.ceil(max(distance / STRAIGHT_STEP, angle / STRAIGHT_TURN))))
+        slerp = Slerp([0.0, 1.0], turns)
+        lower, upper = np.asarray(planner.joint_limits)[:7].T
+        current, path = qpos.copy(), [qpos[:7].copy()]
+        for fraction in np.arange(1, count + 1) / count:
+            waypoint = np.concatenate([start[:3] + fraction * (flange_pose[:3] - start[:3]),
+                                       np.roll(slerp(fraction).as_quat(), 1)])  # fmt: skip
+            solution, converged, _ = model.compute_IK_CLIK(flange, waypoint, current)
+            solution = np.asarray(solution)
+            if (not converged or np.any(solution[:7] < lower - 1e-3) or np.any(solution[:7] > upper + 1e-3)
+                    or np.abs(solution[:7] - current[:7]).max() > MAX_JOINT_JUMP
+                    or planner.check_for_self_collision(qpos=solution)):  # fmt: skip
+                return {"status": "straight move failed"}
+            current = solution
+            path.append(current[:7].copy())
+        _, position, *_ = planner.TOPP(np.asarray(path), 1.0 / self.env.control_freq)
+        return {"status": "Success", "position": position}
 
     def _plan_to_joints(self, goals: list[np.ndarray], qpos: np.ndarray) -> dict[str, Any]:
         """A timed joint path to the first goal reachable by a straight line in joint space free of self-collision;
@@ -393,24 +459,126 @@ def object_bottom(env: RoboLabEnv, name: str) -> float:
 
 
 def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, keep_sign: bool = False) -> np.ndarray:
-    """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP: at the middle of the object's footprint, or, when
-    nothing of the object is there (a ring, a pair of glasses), at its part nearest the middle; fingers close along
-    `closing` (default: across the part's narrowest horizontal direction); a little below the part's top and clear
-    of the table."""
+    """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP. Of the candidate grasps (the fingers closing along
+    `closing`, or along directions turned from the part's narrowest horizontal one; the hand centred on the
+    object's footprint or moved along the part) the one whose hand clears the neighbours, then the one nearest the
+    middle and least turned. Where nothing of the object is at the middle of its footprint (a ring, a pair of
+    glasses) its part nearest the middle is grasped. The height: a little below the part's top, lower on a part
+    that is widest further down (a ball: its widest section that fits between the open fingers), and the closed
+    fingertips clear of the table."""
     env.eval_context.refresh()
     points = _world_points(env, name)
     bottom = points[:, 2].min()  # of the whole object: what the fingertips must stay clear of is below it
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
-    if not _hits(env, name, centre[:2], points[:, 2].max()):  # the middle is empty: grasp the part of the object nearest to it
+    part_only = not _hits(env, name, centre[:2], points[:, 2].max())
+    if part_only:  # the middle is empty: grasp the part of the object nearest to it
         nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
         points = points[np.linalg.norm(points[:, :2] - nearest[:2], axis=1) < PART_RADIUS]
         centre = np.array([nearest[0], nearest[1], (points[:, 2].max() + points[:, 2].min()) / 2])
     if closing is None:
         xy = points[:, :2] - points[:, :2].mean(axis=0)
         _, vectors = np.linalg.eigh(xy.T @ xy)
-        closing = vectors[:, 0]  # the direction of least spread: the fingers close along it
-    z = max(points[:, 2].max() - GRASP_DEPTH, bottom + FINGERTIP_CLEARANCE)
-    return np.concatenate([[centre[0], centre[1], z], _down_quaternion(closing, keep_sign)])
+        narrowest = vectors[:, 0]  # the direction of least spread: the fingers close along it by preference
+        directions = [_turned(narrowest, angle) for angle in GRASP_TURNS]
+    else:
+        directions = [np.asarray(closing[:2], dtype=np.float64)]
+    heights = _obstacle_heights(env, name, centre[:2])
+    best, best_key = None, None
+    for turn_rank, direction in enumerate(directions):
+        direction = direction / np.linalg.norm(direction)
+        along = np.array([-direction[1], direction[0]])  # the hand's x axis: the fingers' width runs along it
+        reach = points[:, :2] @ along - centre[:2] @ along
+        limit = MAX_SHIFT_SHARE * float(np.ptp(reach))
+        shifts = [0.0] if part_only else [v for v in GRASP_SHIFTS if abs(v) <= limit]
+        for shift in shifts or [0.0]:
+            xy = centre[:2] + along * shift
+            slab = points[np.abs(points[:, :2] @ along - xy @ along) < FINGER_HALF_WIDTH]
+            if len(slab) < MIN_SLAB_POINTS:  # too few surface points there to measure (a box has only its corners)
+                slab = points
+            z, width = _grasp_height(slab, direction, bottom)
+            fingers, body = _hand_clash(heights, xy, direction, z)
+            cost = abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
+            blocked = max(body - BODY_CLASH_TOLERANCE, 0.0)  # a little is pushed aside; more: the hand lands on it
+            key = (blocked > 0.0, round(blocked, 3), shift != 0.0 or turn_rank > 0, cost)  # others if blocked
+            if best_key is None or key < best_key:
+                best, best_key = (xy, z, direction), key
+    xy, z, direction = best
+    return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
+
+
+def _turned(direction: np.ndarray, degrees: float) -> np.ndarray:
+    angle = np.radians(degrees)
+    cos, sin = np.cos(angle), np.sin(angle)
+    return np.array([cos * direction[0] - sin * direction[1], sin * direction[0] + cos * direction[1]])
+
+
+def _grasp_height(slab: np.ndarray, closing: np.ndarray, bottom: float) -> tuple[float, float]:
+    """TCP height for fingers closing along `closing` on the object points `slab` between them, and the width
+    they close on there. A little below the top; lower where the part is wider further down and still fits between
+    the open fingers (round things are held through their middle); the closed pads' lower ends clear of `bottom`."""
+    across = slab[:, :2] @ closing
+    top = slab[:, 2].max()
+    levels = np.arange(top - GRASP_DEPTH, bottom + 2 * SECTION_STEP, -SECTION_STEP)  # the base's own edge aside
+
+    def width_at(level: float) -> float:
+        near = np.abs(slab[:, 2] - level) < SECTION_STEP
+        return float(np.ptp(across[near])) if near.sum() >= 2 else 0.0
+
+    z, width = levels[0] if len(levels) else top - GRASP_DEPTH, 0.0
+    for level in levels:  # down from the default height, while the part still fits between the open fingers
+        section = width_at(level)
+        if section > MAX_GRASP_WIDTH:
+            break
+        if section > width + SECTION_STEP or level == levels[0]:  # clearly wider here: hold it here
+            z, width = level, section
+    width = width or float(np.ptp(across))
+    drop = float(np.interp(width, PAD_DROP_WIDTHS, PAD_DROP))
+    return max(z, bottom + drop + FINGERTIP_CLEARANCE), width
+
+
+def _obstacle_heights(env: RoboLabEnv, name: str, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The top heights of everything but object `name`, the robot and the table, on a grid of vertical rays around
+    `centre` (cell centres (K, 2), heights (K,), -inf where nothing is); None off the CPU simulator."""
+    if env.scene.gpu_sim_enabled:
+        return None
+    owner = {entity: other for other, actor in env.objects.items() for entity in actor._objs}
+    robot = {link.entity for link in env.agent.robot._objs[0].links}
+    steps = np.arange(-OBSTACLE_RADIUS, OBSTACLE_RADIUS + 1e-9, OBSTACLE_CELL)
+    cells = np.stack(np.meshgrid(steps, steps), axis=-1).reshape(-1, 2) + centre
+    heights = np.full(len(cells), -np.inf)
+    down = np.array([0.0, 0.0, -1.0], dtype=np.float32)
+    for index, (x, y) in enumerate(cells):
+        z = OBSTACLE_CEILING
+        for _ in range(8):  # through the robot and the object itself, down to the first other object
+            hit = env.scene.px.raycast(np.array([x, y, z], dtype=np.float32), down, z + 0.05)
+            if hit is None:
+                break
+            entity, z = hit.component.entity, z - hit.distance
+            other = owner.get(entity)
+            if other is not None and other != name:
+                heights[index] = z
+                break
+            if other is None and entity not in robot:  # the table or the floor
+                break
+            z -= 1e-4
+    return cells, heights
+
+
+def _hand_clash(heights: tuple[np.ndarray, np.ndarray] | None, xy: np.ndarray, closing: np.ndarray,
+                z: float) -> tuple[float, float]:  # fmt: skip
+    """How far (m) anything else rises into the space that the open fingers, and the rest of the hand, sweep coming
+    straight down to a grasp at (xy, z) with the fingers closing along `closing`; (0, 0) when the way is clear."""
+    if heights is None:
+        return 0.0, 0.0
+    cells, tops = heights
+    along = np.array([-closing[1], closing[0]])
+    local = cells - xy
+    u, v = np.abs(local @ along), np.abs(local @ closing)
+    clashes = []
+    for half_u, half_v, reach in HAND_PARTS:
+        inside = (u <= half_u + HAND_MARGIN) & (v <= half_v + HAND_MARGIN)
+        clashes.append(max(float(tops[inside].max(initial=-np.inf)) - (z - reach), 0.0))
+    return clashes[0], max(clashes[1:])
 
 
 def _hits(env: RoboLabEnv, name: str, xy: np.ndarray, top: float) -> bool:
