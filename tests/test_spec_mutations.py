@@ -119,9 +119,14 @@ def normalized(path: str) -> str:
 def expectation(kind: str, data: dict, path: str, mutation: str, default: str) -> str | None:
     """None when the mutation leaves a valid file, LAYOUT, or the field the error must name (`default` unless a
     rule below says otherwise)."""
+    steps = split(path)
+    if kind == "scene" and matches("objects[].name", path) and mutation in ("missing", "unknown_name"):
+        renamed = data["objects"][steps[1]].get("name")
+        for index, other in enumerate(data["objects"]):
+            if renamed is not None and other.get("rests_on") == renamed:
+                return f"objects[{index}].rests_on"  # what rests on it names it by its old name
     if any(matches(pattern, path) and mutation in names for pattern, names in VALID[kind].items()):
         return None
-    steps = split(path)
     if kind == "task" and matches("subtasks[].logical", path) and mutation == "missing":
         return f"subtasks[{steps[1]}].k" if "k" in data["subtasks"][steps[1]] else None  # k needs logical: choose
     if kind == "task" and matches("subtasks[].steps[].weight", path) and mutation == "zero":
