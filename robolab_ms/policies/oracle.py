@@ -3,9 +3,11 @@
 It reads the task's success condition and the true object poses, turns them into pick-and-place jobs (which
 object, where to put it), plans each move with mplib (straight lines through inverse-kinematics waypoints a
 centimetre apart, mplib's screw motion at the edge of the workspace, RRT-Connect when no straight line is free),
-grasps top-down where the hand clears the neighbours (from a grid of ray casts) and replays the plan as the same 8-D DROID actions a learned policy sends: 7 absolute joint targets
-and the gripper (0 open, 1 closed) at the control rate. It plans one move at a time from the state it finds, so a
-slipped grasp is noticed at the next move. When it cannot go on it raises OracleFailure saying why.
+grasps top-down where the hand clears the neighbours (from a grid of ray casts), sets objects down on a free flat
+spot of a bin's floor or a plate within reach (another grid of ray casts) and replays the plan as the same 8-D
+DROID actions a learned policy sends: 7 absolute joint targets and the gripper (0 open, 1 closed) at the control
+rate. It plans one move at a time from the state it finds, so a slipped grasp is noticed at the next move. When it
+cannot go on it raises OracleFailure saying why.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 from gymnasium import spaces
@@ -81,10 +83,12 @@ class OracleFailure(RoboLabError):
 @dataclass(frozen=True)
 class Job:
     """Move one object: onto or into the object `onto`, onto the table with the middle of its footprint at `at`
-    (x, y), up by `lift` metres, or stand it upright where it lies (`upright`)."""
+    (x, y), up by `lift` metres, or stand it upright where it lies (`upright`). Onto an object: at a free flat
+    spot of it (a bin's floor, a plate), or at its middle when `centred` (stacking)."""
 
     obj: str
     onto: str | None = None
+    centred: bool = False
     at: tuple[float, float] | None = None
     lift: float = 0.0
     upright: bool = False
@@ -94,6 +98,12 @@ SIDE_OFFSET = 0.15  # m from a reference's centre to where an object is put besi
 DIRECTIONS = {"left_of": (0.0, 1.0), "right_of": (0.0, -1.0), "in_front_of": (-1.0, 0.0), "behind": (1.0, 0.0)}
 TABLE_SAFE_X, TABLE_SAFE_Y = (0.30, 0.75), (-0.40, 0.40)  # where the oracle may put things down (robot frame, m)
 SPOT_MARGIN = 0.03  # m of table kept clear around an object the oracle puts down
+PLACE_CELL = 0.01  # m between the rays that map a container's floor or a plate when choosing where to set down
+PLACE_FLATNESS = 0.02  # m a place spot may rise above the lowest point of the container or plate
+OPEN_FINGER_REACH = 0.05  # m from the TCP to the outer face of an open finger, along the closing direction
+PLACE_MARGIN = 0.015  # m kept between an object set down in a container or on a plate and what is already there
+PLACE_REACH_TRIES = 12  # free spots tried for reach where the middle is out of reach ...
+PLACE_REACH_MARGIN = 0.04  # ... and the one chosen this much nearer the robot than the farthest reached, if free
 
 
 def jobs_for(env: RoboLabEnv) -> list[Job]:
@@ -113,7 +123,7 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
         return [Job(name, onto=home[name]) for name in objects]
     if predicate == "stacked":
         order = objects[::-1] if params.get("order") == "top_to_bottom" else objects
-        return [Job(upper, onto=lower) for lower, upper in zip(order, order[1:])]
+        return [Job(upper, onto=lower, centred=True) for lower, upper in zip(order, order[1:])]
     if predicate == "picked_up":
         return [Job(name, lift=params.get("distance", 0.05) + 0.05) for name in objects[:1]]
     if predicate in DIRECTIONS or predicate == "next_to":
@@ -179,6 +189,9 @@ class OraclePolicy(Policy):
         grasp = grasp_pose(env, job.obj)
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
+        spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
+        spot = free_place(env, job.obj, job.onto, grasp, held_bottom, self._can_lower) if spread else None
+        place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         above_grasp = _above(env, grasp, APPROACH_HEIGHT, hanging=0.0)
         qpos = self._move(qpos, above_grasp, f"reach above '{job.obj}'", straight=False)
@@ -190,12 +203,20 @@ class OraclePolicy(Policy):
         lifted = _above(env, grasp, LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
         qpos = self._move(qpos, lifted, f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
-        place = place_pose(env, job, grasp, held_bottom, held_offset)
-        above_place = _above(env, place, APPROACH_HEIGHT, hanging=held_bottom, held=job.obj)
         qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
         self._move(qpos, above_place, f"retreat from {where}")
+
+    def _can_lower(self, over: np.ndarray, place: np.ndarray) -> bool:
+        """Whether the arm reaches TCP pose `over` (by inverse kinematics) and from there moves straight to
+        `place`."""
+        status, postures = self._planner.IK(self._flange_target(over), self._planner_qpos())
+        if status != "Success":
+            return False
+        start = self._planner_qpos()
+        start[:7] = postures[0][:7]
+        return self._plan_straight(self._flange_target(place), start)["status"] == "Success"
 
     def _plan_reorientation(self, name: str) -> None:
         """Stand a lying object up. A lying container is held by the top of its rim (one finger inside) and tipped
@@ -541,27 +562,8 @@ def _obstacle_heights(env: RoboLabEnv, name: str, centre: np.ndarray) -> tuple[n
     `centre` (cell centres (K, 2), heights (K,), -inf where nothing is); None off the CPU simulator."""
     if env.scene.gpu_sim_enabled:
         return None
-    owner = {entity: other for other, actor in env.objects.items() for entity in actor._objs}
-    robot = {link.entity for link in env.agent.robot._objs[0].links}
-    steps = np.arange(-OBSTACLE_RADIUS, OBSTACLE_RADIUS + 1e-9, OBSTACLE_CELL)
-    cells = np.stack(np.meshgrid(steps, steps), axis=-1).reshape(-1, 2) + centre
-    heights = np.full(len(cells), -np.inf)
-    down = np.array([0.0, 0.0, -1.0], dtype=np.float32)
-    for index, (x, y) in enumerate(cells):
-        z = OBSTACLE_CEILING
-        for _ in range(8):  # through the robot and the object itself, down to the first other object
-            hit = env.scene.px.raycast(np.array([x, y, z], dtype=np.float32), down, z + 0.05)
-            if hit is None:
-                break
-            entity, z = hit.component.entity, z - hit.distance
-            other = owner.get(entity)
-            if other is not None and other != name:
-                heights[index] = z
-                break
-            if other is None and entity not in robot:  # the table or the floor
-                break
-            z -= 1e-4
-    return cells, heights
+    cells, heights, names = _surface_grid(env, name, centre, OBSTACLE_RADIUS, OBSTACLE_CELL)
+    return cells, np.where([other is None for other in names], -np.inf, heights)
 
 
 def _hand_clash(heights: tuple[np.ndarray, np.ndarray] | None, xy: np.ndarray, closing: np.ndarray,
@@ -589,17 +591,132 @@ def _hits(env: RoboLabEnv, name: str, xy: np.ndarray, top: float) -> bool:
     return _ray_hit(env, name, np.array([xy[0], xy[1], top + 0.01]), -1.0) is not None
 
 
-def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float, held_offset: np.ndarray) -> np.ndarray:
-    """Where the TCP goes to release the held object: centred over `job.onto` with the object's bottom just above
-    its top (a container's rim must be cleared on the way down), or just above the table with the middle of the
-    object's footprint (`held_offset` from the TCP) at `job.at`."""
+def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float,
+               held_offset: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Where the TCP goes to release the held object, and where above it the object is carried first (see
+    `_over_place`): centred over `job.onto` with the object's bottom just above its top (a container's rim must be
+    cleared on the way down; `free_place` finds a better spot where it can), or just above the table with the
+    middle of the object's footprint (`held_offset` from the TCP) at `job.at`."""
     if job.onto is not None:
         points = _world_points(env, job.onto)
         x, y = (points[:, :2].max(axis=0) + points[:, :2].min(axis=0)) / 2
         top = points[:, 2].max()
     else:
         (x, y), top = np.asarray(job.at) + held_offset, 0.0
-    return np.concatenate([[x, y, top + RELEASE_CLEARANCE + held_bottom], grasp[3:]])
+    place = np.concatenate([[x, y, top + RELEASE_CLEARANCE + held_bottom], grasp[3:]])
+    return place, _over_place(env, place, held_bottom, job.obj, job.onto)[0]
+
+
+def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
+                  cell: float) -> tuple[np.ndarray, np.ndarray, list[str | None]]:  # fmt: skip
+    """The first thing that vertical rays meet, passing through the robot and object `name`, on a grid of `cell`
+    spacing around `centre`: cell centres (K, 2), heights (K,; the table's, or 0, where no object is) and the
+    names of the objects hit (None: the table or nothing)."""
+    owner = {entity: other for other, actor in env.objects.items() for entity in actor._objs}
+    robot = {link.entity for link in env.agent.robot._objs[0].links}
+    steps = np.arange(-radius, radius + 1e-9, cell)
+    cells = np.stack(np.meshgrid(steps, steps), axis=-1).reshape(-1, 2) + centre
+    heights, names = np.zeros(len(cells)), [None] * len(cells)
+    down = np.array([0.0, 0.0, -1.0], dtype=np.float32)
+    for index, (x, y) in enumerate(cells):
+        z = OBSTACLE_CEILING
+        for _ in range(8):  # through the robot and the object itself, down to the first other object
+            hit = env.scene.px.raycast(np.array([x, y, z], dtype=np.float32), down, z + 0.05)
+            if hit is None:
+                break
+            entity, z = hit.component.entity, z - hit.distance
+            other = owner.get(entity)
+            if other is not None and other != name:
+                heights[index], names[index] = z, other
+                break
+            if other is None and entity not in robot:  # the table or the floor
+                heights[index] = z
+                break
+            z -= 1e-4
+    return cells, heights, names
+
+
+def free_place(
+    env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
+    reachable: Callable[[np.ndarray, np.ndarray], bool],
+) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    """A release pose of the TCP, and the pose above it that it is lowered from, that set `name` (held by `grasp`,
+    not turned) down on a flat part of `onto` (a bin's floor, a plate) clear of what already lies there: the
+    object's footprint and the open fingers over `onto` no more than PLACE_FLATNESS above its lowest point, nothing
+    else within PLACE_MARGIN of the object (where no spot has that room: the object alone over the flat part,
+    touching nothing else). Of those spots, the one nearest the middle of `onto` if `reachable(over, place)` (the
+    arm reaches the pose over it and moves straight down from there), else about the farthest from the robot that
+    it reaches. The object's bottom is released RELEASE_CLEARANCE above the highest point under it. None where no
+    such spot exists (a bowl's curved inside) or off the CPU simulator."""
+    if env.scene.gpu_sim_enabled:
+        return None
+    env.eval_context.refresh()
+    target = _world_points(env, onto)
+    low, high = target[:, :2].min(axis=0), target[:, :2].max(axis=0)
+    middle = (low + high) / 2
+    held = _world_points(env, name)[:, :2] - grasp[:2]  # the held object relative to the TCP
+    body_low, body_high = held.min(axis=0), held.max(axis=0)
+    closing = quat_to_matrix(grasp[3:])[:2, 1]
+    fingers = np.abs(closing) * OPEN_FINGER_REACH + np.abs(closing[::-1]) * FINGER_HALF_WIDTH
+    foot_low, foot_high = np.minimum(body_low, -fingers), np.maximum(body_high, fingers)
+    radius = float(np.max(high - middle)) + PLACE_CELL
+    cells, heights, names = _surface_grid(env, name, middle, radius, PLACE_CELL)
+    on_target = np.array([other == onto for other in names])
+    if not on_target.any():
+        return None
+    level = heights[on_target].min()
+    flat = on_target & (heights <= level + PLACE_FLATNESS)
+    others = np.array([other is not None and other != onto for other in names])
+    centre_offset = (body_low + body_high) / 2
+    candidates = cells[flat] - centre_offset  # TCP positions putting the object's middle over a flat cell
+    order = np.argsort(np.linalg.norm(candidates + centre_offset - middle, axis=1), kind="stable")
+    is_container = env.eval_context.entries[onto].is_container
+    free = []  # release poses, middlemost first
+    # the object and the open fingers with room around; where nothing has that room, the object alone
+    for foot_low, foot_high, margin in ((foot_low, foot_high, PLACE_MARGIN), (body_low, body_high, 0.0)):
+        for tcp in candidates[order]:
+            local = cells - tcp
+            under = np.all((local >= foot_low) & (local <= foot_high), axis=1)
+            if not flat[under].all() and (is_container or on_target[under & ~flat].any()):
+                continue  # on a wall, a rim or the edge (a plate may have the table under the fingers)
+            near = np.all((local >= body_low - margin) & (local <= body_high + margin), axis=1)
+            if others[near].any():
+                continue
+            z = heights[under].max() + RELEASE_CLEARANCE + held_bottom
+            free.append(np.concatenate([[tcp[0], tcp[1], z], grasp[3:]]))
+        if free:
+            break
+    if not free:
+        return None
+
+    def reached(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        for over in _over_place(env, pose, held_bottom, name, onto):
+            if reachable(over, pose):
+                return pose, over
+        return None
+
+    found = reached(free[0])
+    if found is not None:
+        return found
+    # the middle is out of reach (a large bin): the free spot farthest from the robot that it reaches, so that the
+    # nearer ones are left for what comes next (reach falls off with the distance: a binary search)
+    farthest_first = sorted(free, key=lambda pose: -float(np.linalg.norm(pose[:2])))
+    low, high = 0, len(farthest_first) - 1
+    for _ in range(PLACE_REACH_TRIES):
+        if low > high:
+            break
+        index = (low + high) // 2
+        attempt = reached(farthest_first[index])
+        if attempt is not None:
+            found, high = attempt, index - 1
+        else:
+            low = index + 1
+    if found is not None:  # at the very edge of the reach the arm takes odd postures: a little nearer if free
+        edge = float(np.linalg.norm(found[0][:2]))
+        for pose in farthest_first:
+            if float(np.linalg.norm(pose[:2])) <= edge - PLACE_REACH_MARGIN:
+                return reached(pose) or found
+    return found
 
 
 def _centre(env: RoboLabEnv, name: str) -> np.ndarray:
@@ -697,6 +814,19 @@ def _above(env: RoboLabEnv, pose: np.ndarray, height: float, hanging: float, hel
     raised = pose.copy()
     raised[2] = max(pose[2] + height, max(tops, default=0.0) + TRAVEL_CLEARANCE + max(hanging, FINGERTIP_BELOW_TCP))
     return raised
+
+
+def _over_place(env: RoboLabEnv, place: np.ndarray, held_bottom: float, held: str,
+                onto: str | None) -> list[np.ndarray]:  # fmt: skip
+    """Where the held object may be carried to before it is lowered straight to `place`, best first: as high as
+    above a release just over the top of `onto` (the way in to a low release inside a bin is then as high as the
+    way to one over its rim), then only APPROACH_HEIGHT above `place` (see `_above`) where that is lower."""
+    low = _above(env, place, APPROACH_HEIGHT, hanging=held_bottom, held=held)
+    if onto is None:
+        return [low]
+    high = low.copy()
+    high[2] = max(low[2], _world_points(env, onto)[:, 2].max() + RELEASE_CLEARANCE + held_bottom + APPROACH_HEIGHT)
+    return [high, low] if high[2] > low[2] + 1e-3 else [low]
 
 
 def _raised(pose: np.ndarray, height: float) -> np.ndarray:
