@@ -189,9 +189,10 @@ class OraclePolicy(Policy):
         grasp = grasp_pose(env, job.obj)
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
-        spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
-        spot = free_place(env, job.obj, job.onto, grasp, held_bottom, self._can_lower) if spread else None
-        place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
+        if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
+            spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
+            spot = free_place(env, job.obj, job.onto, grasp, held_bottom, self._can_lower) if spread else None
+            place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         above_grasp = _above(env, grasp, APPROACH_HEIGHT, hanging=0.0)
         qpos = self._move(qpos, above_grasp, f"reach above '{job.obj}'", straight=False)
