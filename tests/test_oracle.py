@@ -18,6 +18,15 @@ def test_oracle_solves_banana_in_bowl_through_the_runner(tmp_path):
     assert all(r.success_step < 200 for r in results)  # it plans, it does not wander
 
 
+@pytest.mark.parametrize("task", ["PickUpGreenObject", "BagelsOnPlate"])
+def test_oracle_lifts_and_sets_two_objects_side_by_side(task, tmp_path):
+    """A picked_up condition (a lift, nowhere to put it) and two bagels on one plate (each needs its own free spot:
+    the second one set down on the first does not rest on the plate)."""
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=(task,), episodes=1), tmp_path,
+                             show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success
+
+
 def test_oracle_says_why_when_the_object_is_out_of_reach(banana_env):
     banana_env.reset(seed=0)
     base = banana_env.unwrapped
