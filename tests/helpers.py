@@ -1,6 +1,13 @@
-"""Helpers shared by the physics tests."""
+"""Helpers shared by the tests: physics set-ups, and killing a parallel run as a crash would."""
 
+import os
+import signal
+import subprocess
+import time
+from collections.abc import Callable
 from pathlib import Path
+
+import psutil
 
 import numpy as np
 import torch
@@ -21,3 +28,20 @@ def put(env, name, xyz, quat=(1.0, 0.0, 0.0, 0.0)):
 def hold_arm_action(env, gripper: float) -> np.ndarray:
     """An action that keeps the arm where it is, with this gripper command."""
     return np.concatenate([env.arm_qpos()[0].numpy(), [gripper]]).astype(np.float32)
+
+
+def kill_run_with_workers(process: subprocess.Popen, written: Callable[[], int], at_least: int, log: Path) -> None:
+    """Once `written()` (episodes on disk) reaches `at_least`, SIGKILL the running `robolab` process as a crash
+    would; its worker processes must die with it. Fails if the run ended first."""
+    deadline = time.monotonic() + 400
+    while time.monotonic() < deadline and process.poll() is None:
+        if written() >= at_least:
+            break
+        time.sleep(0.02)
+    assert process.poll() is None, f"the run ended before it could be killed:\n{log.read_text()}"
+    workers = psutil.Process(process.pid).children(recursive=True)
+    assert len(workers) >= 2
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait(timeout=30)
+    _, alive = psutil.wait_procs(workers, timeout=30)
+    assert not alive, "worker processes outlived the killed run"

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import os
 import random
-import signal
 import subprocess
 import sys
 import time
@@ -15,7 +14,6 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import h5py
-import psutil
 import pytest
 from tqdm import tqdm
 
@@ -24,6 +22,8 @@ from robolab_ms.eval.parallel import Job, Schedule
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, exclusive_writer, read_results
 from robolab_ms.eval.runner import EvalConfig, adaptive_sampling_done, run_evaluation
 from robolab_ms.policies import make_policy
+
+from helpers import kill_run_with_workers
 
 ROBOLAB = str(Path(sys.executable).with_name("robolab"))
 TESTS = Path(__file__).parent
@@ -65,18 +65,8 @@ def test_workers_killed_by_sigkill_mid_run_resume_with_every_episode_once(tmp_pa
     log = (tmp_path / "killed.log").open("w")
     process = subprocess.Popen(eval_command(out, "--workers", "2"), stdout=log, stderr=subprocess.STDOUT)
     episodes = out / EPISODES_FILE
-    deadline = time.monotonic() + 400
-    while time.monotonic() < deadline and process.poll() is None:
-        if episodes.exists() and len(complete_lines(out)) >= 3:
-            break
-        time.sleep(0.02)
-    assert process.poll() is None, f"the run ended before it could be killed:\n{(tmp_path / 'killed.log').read_text()}"
-    workers = psutil.Process(process.pid).children(recursive=True)
-    assert len(workers) >= 2
-    os.kill(process.pid, signal.SIGKILL)
-    process.wait(timeout=30)
-    _, alive = psutil.wait_procs(workers, timeout=30)
-    assert not alive, "worker processes outlived the killed run"
+    kill_run_with_workers(process, lambda: len(complete_lines(out)) if episodes.exists() else 0, 3,
+                          tmp_path / "killed.log")  # fmt: skip
     written = len(complete_lines(out))
     assert 3 <= written < len(TASKS) * EPISODES
     with episodes.open("a", encoding="utf-8") as handle:  # as if the kill had come in the middle of a line

@@ -6,18 +6,18 @@ from __future__ import annotations
 import csv
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
 from dataclasses import asdict
 from pathlib import Path
 
-import psutil
 import pytest
 
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, read_results
 from robolab_ms.eval.validate import REPORT_CSV, REPORT_MD, validate_task, write_report
+
+from helpers import kill_run_with_workers
 
 REPO = Path(__file__).resolve().parents[1]
 SEEDS = 2
@@ -113,18 +113,8 @@ def test_a_run_killed_mid_way_resumes_without_running_finished_episodes_again(tm
     log = (tmp_path / "killed.log").open("w")
     process = subprocess.Popen(validate_command(task_files, out), stdout=log, stderr=subprocess.STDOUT,
                                env={**os.environ, "PYTHONPATH": str(REPO)})  # fmt: skip
-    deadline = time.monotonic() + 400
-    while time.monotonic() < deadline and process.poll() is None:
-        if (out / EPISODES_FILE).exists() and len(complete_lines(out)) >= 2:
-            break
-        time.sleep(0.02)
-    assert process.poll() is None, f"the run ended before it could be killed:\n{(tmp_path / 'killed.log').read_text()}"
-    workers = psutil.Process(process.pid).children(recursive=True)
-    assert len(workers) >= 2
-    os.kill(process.pid, signal.SIGKILL)
-    process.wait(timeout=30)
-    _, alive = psutil.wait_procs(workers, timeout=30)
-    assert not alive, "worker processes outlived the killed run"
+    kill_run_with_workers(process, lambda: len(complete_lines(out)) if (out / EPISODES_FILE).exists() else 0, 2,
+                          tmp_path / "killed.log")  # fmt: skip
     before = complete_lines(out)
     assert 2 <= len(before) < 2 * SEEDS * len(TASKS)
 
