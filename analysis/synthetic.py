@@ -19,6 +19,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult
 
@@ -105,6 +106,19 @@ def write_synthetic_run(out_dir: str | Path, policy: str, tasks: Sequence[str], 
                 "seed": seed, "params": {k: list(v) for k, v in (params or {}).items()}}  # fmt: skip
     (out / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
     return out
+
+
+def paired_episode_frame(rng: np.random.Generator, rate_a: np.ndarray, rate_b: np.ndarray, pairs: int) -> pd.DataFrame:
+    """Episode rows (as `load_runs` gives them, the columns a paired comparison reads) of policies `a` and `b` on
+    len(rate_a) tasks T000, T001, ..., `pairs` matched seeds each, outcomes drawn independently with the per-task
+    success rates `rate_a` and `rate_b`: for checking paired comparisons against a known difference."""
+    tasks = np.repeat([f"T{i:03d}" for i in range(len(rate_a))], pairs)
+    seeds = np.tile(np.arange(pairs), len(rate_a))
+    a = rng.random(len(tasks)) < np.repeat(rate_a, pairs)
+    b = rng.random(len(tasks)) < np.repeat(rate_b, pairs)
+    return pd.DataFrame({"task": np.concatenate([tasks, tasks]), "instruction_variant": "default", "robot": "droid",
+                         "seed": np.concatenate([seeds, seeds]), "policy": ["a"] * len(tasks) + ["b"] * len(tasks),
+                         "run": ["ra"] * len(tasks) + ["rb"] * len(tasks), "success": np.concatenate([a, b])})  # fmt: skip
 
 
 def _stable_hash(text: str) -> int:

@@ -15,23 +15,12 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-import pandas as pd
 
 from robolab_ms.analysis.paired import compare_policies, paired_task_table
+from robolab_ms.analysis.synthetic import paired_episode_frame
 
 POPULATION_DIFFERENCE = 0.2
 SETTINGS = ((5, 20), (10, 20), (20, 20), (30, 20), (30, 10), (60, 10))  # (tasks, pairs per task)
-
-
-def paired_episodes(rng: np.random.Generator, rate_a: np.ndarray, rate_b: np.ndarray, pairs: int) -> pd.DataFrame:
-    """Episodes of policies a and b on len(rate_a) tasks, `pairs` matched seeds each, outcomes drawn independently."""
-    tasks = np.repeat([f"T{i:03d}" for i in range(len(rate_a))], pairs)
-    seeds = np.tile(np.arange(pairs), len(rate_a))
-    a = rng.random(len(tasks)) < np.repeat(rate_a, pairs)
-    b = rng.random(len(tasks)) < np.repeat(rate_b, pairs)
-    return pd.DataFrame({"task": np.concatenate([tasks, tasks]), "instruction_variant": "default", "robot": "droid",
-                         "seed": np.concatenate([seeds, seeds]), "policy": ["a"] * len(tasks) + ["b"] * len(tasks),
-                         "run": ["ra"] * len(tasks) + ["rb"] * len(tasks), "success": np.concatenate([a, b])})  # fmt: skip
 
 
 def interval_coverage(tasks: int, pairs: int, repetitions: int, resamples: int) -> tuple[float, float, float]:
@@ -42,7 +31,7 @@ def interval_coverage(tasks: int, pairs: int, repetitions: int, resamples: int) 
     for repetition in range(repetitions):
         rate_a = rng.uniform(0.45, 0.95, tasks)
         gap = rng.uniform(0.0, 0.4, tasks)
-        result = compare_policies(paired_episodes(rng, rate_a, rate_a - gap, pairs), "a", "b",
+        result = compare_policies(paired_episode_frame(rng, rate_a, rate_a - gap, pairs), "a", "b",
                                   resamples=resamples, seed=repetition)  # fmt: skip
         low, high = result.overall["ci_low_%"], result.overall["ci_high_%"]
         population += low <= 100 * POPULATION_DIFFERENCE <= high
@@ -55,7 +44,7 @@ def interval_coverage(tasks: int, pairs: int, repetitions: int, resamples: int) 
 def mcnemar_rejections(pairs: int, rate_a: float, rate_b: float, tasks: int = 2000) -> float:
     """Share of `tasks` tasks where the exact McNemar test gives p < 0.05."""
     rng = np.random.default_rng(3)
-    episodes = paired_episodes(rng, np.full(tasks, rate_a), np.full(tasks, rate_b), pairs)
+    episodes = paired_episode_frame(rng, np.full(tasks, rate_a), np.full(tasks, rate_b), pairs)
     wide = episodes.pivot_table(index=["task", "seed"], columns="policy", values="success")
     table = paired_task_table(wide.rename(columns={"a": "success_a", "b": "success_b"}).reset_index())
     return float((table["p_mcnemar"] < 0.05).mean())

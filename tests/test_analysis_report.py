@@ -11,7 +11,7 @@ from robolab_ms.analysis.analyze import GROUPING_NAMES
 from robolab_ms.analysis.paired import compare_policies, mcnemar_exact, paired_task_table
 from robolab_ms.analysis.report import GROUPINGS, breakdown, filter_episodes, parameter_columns
 from robolab_ms.analysis.runs import load_runs
-from robolab_ms.analysis.synthetic import LIGHT_SPACE, write_synthetic_run
+from robolab_ms.analysis.synthetic import LIGHT_SPACE, paired_episode_frame, write_synthetic_run
 from robolab_ms.cli import main
 from robolab_ms.errors import RoboLabError
 
@@ -139,18 +139,6 @@ def test_paired_comparison_on_files_finds_the_known_difference(tmp_path):
     assert result.overall["pairs"] == 120 and result.overall["a_wins_significant"] >= 1
 
 
-def _paired_episodes(rng: np.random.Generator, rate_a: np.ndarray, rate_b: np.ndarray, pairs: int) -> pd.DataFrame:
-    """Episodes of policies a and b on len(rate_a) tasks (T000, T001, ...), `pairs` matched seeds each, outcomes
-    drawn independently with the given per-task rates."""
-    tasks = np.repeat([f"T{i:03d}" for i in range(len(rate_a))], pairs)
-    seeds = np.tile(np.arange(pairs), len(rate_a))
-    a = rng.random(len(tasks)) < np.repeat(rate_a, pairs)
-    b = rng.random(len(tasks)) < np.repeat(rate_b, pairs)
-    return pd.DataFrame({"task": np.concatenate([tasks, tasks]), "instruction_variant": "default", "robot": "droid",
-                         "seed": np.concatenate([seeds, seeds]), "policy": ["a"] * len(tasks) + ["b"] * len(tasks),
-                         "run": ["ra"] * len(tasks) + ["rb"] * len(tasks), "success": np.concatenate([a, b])})  # fmt: skip
-
-
 def test_paired_intervals_cover_the_true_difference():
     """200 synthetic comparisons of 30 tasks x 20 pairs; per task p_A ~ U(0.45, 0.95), p_B = p_A - U(0, 0.4), so
     the mean difference over the population of tasks is 0.2. The 95 % intervals must contain the truth in 90-99 %
@@ -161,7 +149,7 @@ def test_paired_intervals_cover_the_true_difference():
     for repetition in range(repetitions):
         rate_a = rng.uniform(0.45, 0.95, tasks)
         gap = rng.uniform(0.0, 0.4, tasks)
-        result = compare_policies(_paired_episodes(rng, rate_a, rate_a - gap, pairs), "a", "b", resamples=1000,
+        result = compare_policies(paired_episode_frame(rng, rate_a, rate_a - gap, pairs), "a", "b", resamples=1000,
                                   seed=repetition)  # fmt: skip
         overall_hits += result.overall["ci_low_%"] <= 20.0 <= result.overall["ci_high_%"]
         rows = result.per_task  # sorted by task name = the order drawn
@@ -172,11 +160,11 @@ def test_paired_intervals_cover_the_true_difference():
 
 def test_mcnemar_finds_a_large_difference_and_rarely_a_null_one():
     rng = np.random.default_rng(7)
-    null = paired_task_table(_paired_episodes(rng, np.full(400, 0.6), np.full(400, 0.6), 30)
+    null = paired_task_table(paired_episode_frame(rng, np.full(400, 0.6), np.full(400, 0.6), 30)
                              .pivot_table(index=["task", "seed"], columns="policy", values="success")
                              .rename(columns={"a": "success_a", "b": "success_b"}).reset_index())  # fmt: skip
     assert (null["p_mcnemar"] < 0.05).mean() <= 0.06  # exact test: at most its level (here about 0.03)
-    large = paired_task_table(_paired_episodes(rng, np.full(400, 0.9), np.full(400, 0.3), 30)
+    large = paired_task_table(paired_episode_frame(rng, np.full(400, 0.9), np.full(400, 0.3), 30)
                               .pivot_table(index=["task", "seed"], columns="policy", values="success")
                               .rename(columns={"a": "success_a", "b": "success_b"}).reset_index())  # fmt: skip
     assert (large["p_mcnemar"] < 0.05).mean() >= 0.95
