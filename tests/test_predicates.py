@@ -68,6 +68,20 @@ def test_in_container_outside_of_enclosed(env):
     assert check(env, "outside_of_and_on_surface", ["red"], container="bin", max_tilt=0.3) == [False]
 
 
+def test_in_container_with_the_container_knocked_over(env):
+    put(env, "red", (*BOWL, 0.045))
+    settle(env)
+    assert check(env, "in_container", ["red"], container="bowl") == [True]
+    assert check(env, "in_container", ["red"], container="bowl", container_max_tilt=0.5) == [True]
+    upside_down = (0.0, 1.0, 0.0, 0.0)  # 180 deg about x: the bowl turned over onto the cube
+    put(env, "bowl", (*BOWL, 0.1), upside_down)
+    centre = env.eval_context.centre("bowl")[0].tolist()
+    put(env, "red", centre)
+    env.eval_context.refresh(env.elapsed_steps)
+    assert check(env, "in_container", ["red"], container="bowl") == [True]
+    assert check(env, "in_container", ["red"], container="bowl", container_max_tilt=0.5) == [False]
+
+
 def test_above_the_rim_is_in_the_container_but_not_enclosed(env):
     put(env, "red", (*BIN_CENTRE, 0.3))
     env.eval_context.refresh(env.elapsed_steps)

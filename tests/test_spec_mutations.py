@@ -62,6 +62,7 @@ VALID: dict[str, dict[str, set[str]]] = {
         "success[].tolerance": OPTIONAL,
         "success[].order": OPTIONAL,
         "success[].max_tilt": OPTIONAL,
+        "success[].container_max_tilt": OPTIONAL,
         "success[].require_picked_up": OPTIONAL,
         "subtasks[].steps[].weight": OPTIONAL,
         "subtasks[].steps[].require_contact_with": OPTIONAL,

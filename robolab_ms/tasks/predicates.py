@@ -110,11 +110,16 @@ def _inside_hull(ctx: EvalContext, objects: list[str], container: str, tolerance
     return ((local[..., None, :] * planes[:, :3]).sum(-1) + planes[:, 3] <= tolerance).all(dim=-1)
 
 
-@predicate("in_container", references={"container": None}, tolerance=0.0)
-def in_container(ctx: EvalContext, objects: list[str], container: str, tolerance: float) -> torch.Tensor:
+@predicate("in_container", references={"container": None}, tolerance=0.0, container_max_tilt=math.pi)
+def in_container(ctx: EvalContext, objects: list[str], container: str, tolerance: float,
+                 container_max_tilt: float) -> torch.Tensor:  # fmt: skip
     """The object's centre is inside the container's convex hull or the column above its rim (any orientation);
-    `tolerance` (m) widens the hull."""
-    return _inside_hull(ctx, objects, container, tolerance, open_top=True)
+    `tolerance` (m) widens the hull. With `container_max_tilt` (rad) below pi, the container must also stand within
+    that angle of upright: a bowl knocked over onto the object does not hold it."""
+    holds = _inside_hull(ctx, objects, container, tolerance, open_top=True)
+    if container_max_tilt < math.pi:
+        holds = holds & upright(ctx, [container], container_max_tilt)
+    return holds
 
 
 @predicate("enclosed", references={"container": None}, tolerance=0.0)

@@ -154,6 +154,7 @@ PARAM_LIMITS: dict[str, tuple[float, float, bool, str]] = {
     "max_speed": (0.0, 10.0, True, "m/s"),
     "upright.tolerance": (0.0, math.pi, True, "rad"),
     "max_tilt": (0.0, math.pi, True, "rad"),
+    "container_max_tilt": (0.0, math.pi, True, "rad"),
     "on_center.tolerance": (0.0, 0.5, True, "m"),
 }
 EVENT_LIMITS: dict[str, tuple[float, float, bool, str]] = {
