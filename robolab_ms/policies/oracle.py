@@ -41,11 +41,13 @@ FINGERTIP_CLEARANCE = 0.004  # ... but the closed fingertips at least this high 
 PAD_DROP_WIDTHS = (0.0, 0.024, 0.036, 0.047, 0.057, 0.067, 0.077, 0.086)
 PAD_DROP = (0.020, 0.020, 0.019, 0.0173, 0.0153, 0.0127, 0.0096, 0.0061)
 MAX_GRASP_WIDTH = 0.078  # m: the widest part the open fingers (8.6 cm apart) go round with some room
+OPEN_FINGER_GAP = 0.086  # m between the open fingers' pads
 SECTION_STEP = 0.005  # m between the heights at which a part's width is measured
 GRASP_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees from the narrowest closing direction
 MAX_SHIFT_SHARE = 0.3  # a grasp moves along a part by at most this share of its length
 CLASH_COST = 0.1  # m of shift that a metre of neighbour in the hand's way is worth (the hand pushes it aside) ...
 BODY_CLASH_TOLERANCE = 0.08  # ... as long as it rises at most this far into the space of the gripper's body
+FINGER_CLASH_TOLERANCE = 0.03  # ... and at most this far into the space the open fingers sweep
 WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is worth (a narrow hold is firm) ...
 FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
@@ -60,6 +62,10 @@ OBSTACLE_RADIUS = 0.2  # m around a grasp where the tops of other objects are lo
 OBSTACLE_CELL = 0.008  # ... of this spacing
 OBSTACLE_CEILING = 0.8  # m: rays looking for objects start this high
 IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
+WALL_GRASP_DEPTH = 0.02  # m below the rim where the TCP closes on the wall of a standing container too wide to hold
+WALL_GRASP_TURNS = 24  # directions around a standing container tried for a wall grasp
+WALL_MAX_THICKNESS = 0.03  # m: a rim thicker than this is no wall to pinch
+COMFORTABLE_REACH = 0.55  # m from the robot's base where the arm grasps from above most easily
 RIM_DEPTH = 0.02  # m the TCP reaches into a lying container's opening for a rim grasp ...
 RIM_APPROACH = 0.06  # ... after moving in straight from this far outside it
 PIVOT_STEPS = 6  # straight moves that tip a lying container up about its base
@@ -520,12 +526,82 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             z, width = _grasp_height(slab, direction, bottom)
             fingers, body = _hand_clash(heights, xy, direction, z)
             cost = abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
-            blocked = max(body - BODY_CLASH_TOLERANCE, 0.0)  # a little is pushed aside; more: the hand lands on it
+            # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
+            blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
             key = (blocked > 0.0, round(blocked, 3), shift != 0.0 or turn_rank > 0, cost)  # others if blocked
             if best_key is None or key < best_key:
                 best, best_key = (xy, z, direction), key
     xy, z, direction = best
+    if closing is None and _too_wide(points, direction, z) and _standing_container(env, name):
+        wall = wall_grasp(env, name, heights)
+        if wall is not None:
+            return wall
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
+
+
+def _too_wide(points: np.ndarray, closing: np.ndarray, z: float) -> bool:
+    """Whether the object, from height `z` up (where the open fingers come down round it), is wider along
+    `closing` than the gap between them."""
+    near = points[points[:, 2] >= z - 2 * SECTION_STEP]
+    return float(np.ptp(near[:, :2] @ (closing / np.linalg.norm(closing)))) > OPEN_FINGER_GAP
+
+
+def _standing_container(env: RoboLabEnv, name: str) -> bool:
+    return env.eval_context.entries[name].is_container and _tilt(env, name) < 0.3
+
+
+def wall_grasp(env: RoboLabEnv, name: str,
+               heights: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray | None:  # fmt: skip
+    """A top-down grasp [x, y, z, qw, qx, qy, qz] of a standing container too wide for the open fingers (a mug, a
+    bowl): the fingers straddle its wall at the rim, one inside and one outside, closing across the wall. Of the
+    directions around it, the one whose hand clears the neighbours and the container's own handle, at the distance
+    from the robot's base that the arm reaches most easily; None where no wall is found."""
+    points = _world_points(env, name)
+    top = float(points[:, 2].max())
+    rim = points[points[:, 2] > top - 0.01]
+    centre = (rim[:, :2].max(axis=0) + rim[:, :2].min(axis=0)) / 2
+    radius = float(np.linalg.norm(rim[:, :2] - centre, axis=1).max())
+    best, best_key = None, None
+    for index in range(WALL_GRASP_TURNS):
+        angle = 2 * np.pi * index / WALL_GRASP_TURNS
+        outward = np.array([np.cos(angle), np.sin(angle)])
+        wall = _wall_along(env, name, centre, outward, radius, top)
+        if wall is None:
+            continue
+        inner, outer = wall
+        xy = centre + outward * (inner + outer) / 2
+        z = top - WALL_GRASP_DEPTH
+        beyond = points[:, :2] - centre
+        radial, tangential = beyond @ outward, np.abs(beyond @ np.array([-outward[1], outward[0]]))
+        handle = bool(np.any((radial > outer + 0.004) & (radial < outer + 0.04) & (tangential < 0.02)
+                             & (points[:, 2] > z - 0.03)))  # fmt: skip
+        fingers, body = _hand_clash(heights, xy, outward, z)
+        comfort = abs(float(np.linalg.norm(xy)) - COMFORTABLE_REACH)  # then the side the arm reaches most easily
+        key = (handle, fingers + body > 0.01, round(fingers + body, 3), comfort)
+        if best_key is None or key < best_key:
+            best, best_key = (xy, z, outward), key
+    if best is None:
+        return None
+    xy, z, outward = best
+    return np.concatenate([[xy[0], xy[1], z], _down_quaternion(outward)])
+
+
+def _wall_along(env: RoboLabEnv, name: str, centre: np.ndarray, outward: np.ndarray, radius: float,
+                top: float) -> tuple[float, float] | None:  # fmt: skip
+    """Inner and outer distance (m) from `centre` of the container's wall at its rim along `outward`, from vertical
+    ray casts 2 mm apart; None where the rim there is not a thin wall."""
+    at_rim = []
+    for distance in np.arange(0.0, radius + 0.01, 0.002):
+        start = np.array([*(centre + outward * distance), top + 0.02])
+        hit = _ray_hit(env, name, start, -1.0)
+        if hit is not None and hit > top - 0.01:
+            at_rim.append(distance)
+    if not at_rim:
+        return None
+    inner, outer = min(at_rim), max(at_rim)
+    if outer - inner > WALL_MAX_THICKNESS or inner < 0.01:
+        return None
+    return inner, outer
 
 
 def _turned(direction: np.ndarray, degrees: float) -> np.ndarray:
