@@ -123,9 +123,15 @@ def expectation(kind: str, data: dict, path: str, mutation: str, default: str) -
     steps = split(path)
     if kind == "scene" and matches("objects[].name", path) and mutation in ("missing", "unknown_name"):
         renamed = data["objects"][steps[1]].get("name")
+        new_name = data["objects"][steps[1]]["asset"] if mutation == "missing" else VALUES["unknown_name"]
         for index, other in enumerate(data["objects"]):
-            if renamed is not None and other.get("rests_on") == renamed:
+            if index != steps[1] and other.get("name", other["asset"]) == new_name:
+                return f"objects[{max(index, steps[1])}].name"  # its default name is another object's: named twice
+        for index, other in enumerate(data["objects"]):
+            if renamed is not None and renamed != new_name and other.get("rests_on") == renamed:
                 return f"objects[{index}].rests_on"  # what rests on it names it by its old name
+    if kind == "scene" and path in ("jitter", "jitter.xy", "jitter.yaw_deg") and mutation == "missing":
+        return LAYOUT  # the default jitter may be larger than the file's, and carry an object past the table's edge
     if any(matches(pattern, path) and mutation in names for pattern, names in VALID[kind].items()):
         return None
     if kind == "task" and matches("subtasks[].logical", path) and mutation == "missing":
