@@ -1,5 +1,5 @@
 """The oracle policy and task validation, sized for CI: a few episodes of BananaInBowl, MustardInLeftBin, RubiksCube
-and BananasOutOfBin, and fixture scenes for stacking, standing a block up and standing a lying mug up."""
+and BananasOutOfBin, a mug held by its wall, and fixture scenes for stacking, standing a block up and standing a lying mug up."""
 
 import pytest
 from helpers import put
@@ -23,6 +23,32 @@ def test_oracle_lifts_and_sets_two_objects_side_by_side(task, tmp_path):
     """A picked_up condition (a lift, nowhere to put it) and two bagels on one plate (each needs its own free spot:
     the second one set down on the first does not rest on the plate)."""
     results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=(task,), episodes=1), tmp_path,
+                             show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success
+
+
+def test_oracle_holds_a_mug_too_wide_for_the_fingers_by_its_wall(tmp_path):
+    """The 9-cm red mug is wider than the open fingers (8.6 cm): the oracle pinches its wall at the rim, one finger
+    inside, and puts it and the bowl in the bin."""
+    import gymnasium as gym
+    import numpy as np
+
+    from robolab_ms.policies.oracle import OPEN_FINGER_GAP, _world_points, grasp_pose
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("RedDishesInBin").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=0)
+        points = _world_points(env.unwrapped, "mug")
+        rim = points[points[:, 2] > points[:, 2].max() - 0.01]
+        centre = (rim[:, :2].max(axis=0) + rim[:, :2].min(axis=0)) / 2
+        radius = np.linalg.norm(rim[:, :2] - centre, axis=1).max()
+        assert 2 * radius > OPEN_FINGER_GAP
+        grasp = grasp_pose(env.unwrapped, "mug")
+        assert radius - 0.015 < np.linalg.norm(grasp[:2] - centre) < radius  # over the wall, not the middle
+    finally:
+        env.close()
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("RedDishesInBin",), episodes=1), tmp_path,
                              show_progress=False)  # fmt: skip
     assert results[0].error is None and results[0].success
 
