@@ -41,8 +41,6 @@ HEADER = """\
 # Procedural objects are generated from their parameters (robolab_ms/catalog/procedural.py) with exact primitive
 # collision. Mesh objects come from installed packages; 'robolab catalog build' fills in transform.translation,
 # dimensions and the hull files under collision/ (edit the rest by hand, then run it again).
-# Friction: static and dynamic 2.0 for every object, RoboLab's value for 289 of its 312 objects
-# (the reference's robolab_objects.csv; its fruit have 5.0, a few objects 10.0, its toy blocks 0.8/1.0).
 """
 
 
