@@ -155,3 +155,15 @@ def test_oracle_takes_objects_out_of_a_bin_to_separate_free_spots(tmp_path):
     results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("BananasOutOfBin",), episodes=1), tmp_path,
                              show_progress=False)  # fmt: skip
     assert results[0].error is None and results[0].success, results[0]
+
+
+def test_a_grasp_above_a_flat_part_is_not_too_wide():
+    """A spoon lying flat is grasped with the TCP above its top (the closed pads reach below the TCP): nothing of it
+    is at or above the grasp height, and that is no reason for a wall grasp."""
+    import numpy as np
+
+    from robolab_ms.policies.oracle import _too_wide
+
+    spoon = np.array([[0.0, 0.0, 0.0], [0.15, 0.03, 0.0], [0.0, 0.03, 0.012], [0.15, 0.0, 0.012]])
+    assert not _too_wide(spoon, np.array([0.0, 1.0]), z=0.03)
+    assert _too_wide(spoon, np.array([1.0, 0.0]), z=0.005)  # along its 15-cm length

@@ -543,6 +543,8 @@ def _too_wide(points: np.ndarray, closing: np.ndarray, z: float) -> bool:
     """Whether the object, from height `z` up (where the open fingers come down round it), is wider along
     `closing` than the gap between them."""
     near = points[points[:, 2] >= z - 2 * SECTION_STEP]
+    if len(near) < 2:  # the grasp is above the object (a thin part lying flat): nothing for the fingers to go round
+        return False
     return float(np.ptp(near[:, :2] @ (closing / np.linalg.norm(closing)))) > OPEN_FINGER_GAP
 
 
