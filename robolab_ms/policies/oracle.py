@@ -66,6 +66,10 @@ WALL_GRASP_DEPTH = 0.02  # m below the rim where the TCP closes on the wall of a
 WALL_GRASP_TURNS = 24  # directions around a standing container tried for a wall grasp
 WALL_MAX_THICKNESS = 0.03  # m: a rim thicker than this is no wall to pinch
 COMFORTABLE_REACH = 0.55  # m from the robot's base where the arm grasps from above most easily
+STANDING_TILT = 0.3  # rad: a container tilted less than this stands (its rim can be pinched from above)
+HANDLE_REACH = 0.04  # m beyond a wall where a handle would meet the outer finger ...
+HANDLE_HALF_WIDTH = 0.02  # ... within this far to either side of it ...
+PAD_LENGTH = 0.03  # ... as far below the TCP as the pads reach
 RIM_DEPTH = 0.02  # m the TCP reaches into a lying container's opening for a rim grasp ...
 RIM_APPROACH = 0.06  # ... after moving in straight from this far outside it
 PIVOT_STEPS = 6  # straight moves that tip a lying container up about its base
@@ -532,7 +536,9 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             if best_key is None or key < best_key:
                 best, best_key = (xy, z, direction), key
     xy, z, direction = best
-    if closing is None and _too_wide(points, direction, z) and _standing_container(env, name):
+    # a wall grasp needs ray casts, which the oracle does only on the CPU simulator (where `heights` exist)
+    wide = closing is None and heights is not None and _too_wide(points, direction, z)
+    if wide and _standing_container(env, name):
         wall = wall_grasp(env, name, heights)
         if wall is not None:
             return wall
@@ -549,7 +555,7 @@ def _too_wide(points: np.ndarray, closing: np.ndarray, z: float) -> bool:
 
 
 def _standing_container(env: RoboLabEnv, name: str) -> bool:
-    return env.eval_context.entries[name].is_container and _tilt(env, name) < 0.3
+    return env.eval_context.entries[name].is_container and _tilt(env, name) < STANDING_TILT
 
 
 def wall_grasp(env: RoboLabEnv, name: str,
@@ -575,8 +581,8 @@ def wall_grasp(env: RoboLabEnv, name: str,
         z = top - WALL_GRASP_DEPTH
         beyond = points[:, :2] - centre
         radial, tangential = beyond @ outward, np.abs(beyond @ np.array([-outward[1], outward[0]]))
-        handle = bool(np.any((radial > outer + 0.004) & (radial < outer + 0.04) & (tangential < 0.02)
-                             & (points[:, 2] > z - 0.03)))  # fmt: skip
+        handle = bool(np.any((radial > outer + HAND_MARGIN) & (radial < outer + HANDLE_REACH)
+                             & (tangential < HANDLE_HALF_WIDTH) & (points[:, 2] > z - PAD_LENGTH)))  # fmt: skip
         fingers, body = _hand_clash(heights, xy, outward, z)
         comfort = abs(float(np.linalg.norm(xy)) - COMFORTABLE_REACH)  # then the side the arm reaches most easily
         key = (handle, fingers + body > 0.01, round(fingers + body, 3), comfort)
