@@ -26,6 +26,7 @@ from robolab_ms.catalog.appearance import (
 from robolab_ms.catalog.procedural import Part
 from robolab_ms.scene.backgrounds import lighting_cubemap, load_looks, panorama_texture
 from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, quat_multiply, yaw_quat
+from robolab_ms.scene.jitter import JitterSampler
 
 TABLE_TOP_THICKNESS = 0.035
 ROOM_RADIUS = 7.0  # m: half the floor's size; the panorama sphere is just outside it
@@ -67,6 +68,7 @@ class RoboLabSceneBuilder(SceneBuilder):
         self.background = looks.background(spec.background or looks.default_background)
         self.table_material: str | None = None  # a table material in place of the scene's (set before build)
         self.light = LightSetup()  # the room's light (set before build)
+        self._jitter: JitterSampler | None = None  # made on the first episode
 
     def build(self, build_config_idxs: list[int] | None = None) -> None:
         self.table = self._build_table()
@@ -174,16 +176,20 @@ class RoboLabSceneBuilder(SceneBuilder):
         return render
 
     def initialize(self, env_idx: torch.Tensor, init_config_idxs: list[int] | None = None) -> None:
-        """Each object at its nominal place, moved and turned by the scene's jitter; an object resting on another
-        moves and turns with the object at the bottom of its pile, so the pile stays as the scene file built it."""
+        """Each object at its nominal place, moved and turned by the scene's jitter (neighbours kept apart, see
+        robolab_ms.scene.jitter); an object resting on another moves and turns with the object at the bottom of its
+        pile, so the pile stays as the scene file built it."""
         count = len(env_idx)
         rng = self.env._batched_episode_rng[env_idx]
-        jitter = {}
-        for placement in self.spec.objects:  # one draw per object, in scene order, whether it is used or not
-            offset = rng.uniform(-self.spec.jitter_xy, self.spec.jitter_xy, size=(2,)).reshape(count, 2)
-            turn = rng.uniform(-self.spec.jitter_yaw, self.spec.jitter_yaw, size=(1,)).reshape(count)
-            jitter[placement.name] = (offset, turn)
+        if self._jitter is None:
+            self._jitter = JitterSampler(self.spec, self.catalog)
+        draws = [self._jitter.draw(rng[i]) for i in range(count)]
+        jitter = {placement.name: (np.stack([draw[0][index] for draw in draws]),
+                                   np.array([draw[1][index] for draw in draws]))
+                  for index, placement in enumerate(self.spec.objects)}  # fmt: skip
         for placement in self.spec.objects:
+            if placement.fixture:
+                continue  # a fixture (kinematic) stays where build() put it
             base = self.spec.placement(self.spec.base(placement.name))
             offset, turn = jitter[base.name]
             arm = np.asarray(placement.xy) - np.asarray(base.xy)
