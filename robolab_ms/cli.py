@@ -81,11 +81,19 @@ def _select_tasks(args: argparse.Namespace) -> None:
 
 
 def _cmd_list(args: argparse.Namespace) -> int:
+    if args.format != "text" and not args.summary:
+        raise RoboLabError(f"--format {args.format} applies to the totals: add --summary")
+    named = None if not args.task or "all" in args.task else list(args.task)  # before the filters narrow it
     _select_tasks(args)
     from robolab_ms.content import content_dirs
     from robolab_ms.tasks.spec import load_all_tasks, load_task
 
     tasks = [load_task(task) for task in args.task] if args.task else load_all_tasks()
+    if args.summary:
+        from robolab_ms.tasks.summary import listing_summary, render
+
+        print(render(listing_summary(tasks, named, args.tag, args.difficulty, args.scene), args.format), end="")
+        return 0
     rows = [("task", "env id", "scene", "attributes", "axes", "subtasks", "difficulty", "seconds")]
     for spec in tasks:
         rows.append((spec.name, spec.env_id, spec.scene.name, ",".join(spec.attributes) or "-",
@@ -517,6 +525,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     listing = commands.add_parser("list", help="list the tasks with their attributes and difficulty", parents=[content])
     listing.add_argument("--task", nargs="+", metavar="TASK", help=task_help + " (default: every known task)")
+    listing.add_argument("--summary", action="store_true",
+                         help="print the benchmark's totals next to RoboLab-120's, with the difference: tasks, "
+                         "scenes, tasks per attribute, competency axis, difficulty and episode length, and objects "
+                         "per task (the objects of the task's scene a policy sees: targets, distractors, containers "
+                         "and fixtures, not the table or the robot's stand); then RoboLab's tasks still missing and "
+                         "each task whose facts differ from RoboLab's. Filters apply to both sides, RoboLab's by its "
+                         "own attributes, difficulty and scene")  # fmt: skip
+    listing.add_argument("--format", choices=("text", "csv", "markdown"), default="text",
+                         help="with --summary: aligned text (default), CSV or Markdown tables")  # fmt: skip
     _add_task_filters(listing)
     listing.set_defaults(run=_cmd_list)
 
