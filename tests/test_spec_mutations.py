@@ -90,6 +90,7 @@ VALID: dict[str, dict[str, set[str]]] = {
         "objects.*.license": TEXT_ANYTHING,
         "objects.*.colors": {"repeated_entry"},  # a palette may repeat a colour
         "objects.*.restitution": OPTIONAL | {"zero"},
+        "objects.*.fixture": OPTIONAL,  # without it, a dynamic object
         "objects.*.source.textured": OPTIONAL,
         "objects.*.source.package": TEXT_ANYTHING,  # checked by `robolab catalog check`, which loads the meshes
         "objects.*.source.paths[]": TEXT_ANYTHING,  # likewise
@@ -104,7 +105,8 @@ VALID: dict[str, dict[str, set[str]]] = {
 }
 TURNS = {"objects[].yaw_deg": {"zero", "negative", "missing"}, "objects[].tilt": {"missing", "repeated_entry"},
          "objects[].tilt.deg": {"zero", "negative"}, "objects[].tilt[].deg": {"zero", "negative"},
-         "objects[].rests_on": {"missing"}}  # -1 degree: a slight turn; without its support, on the table
+         "objects[].rests_on": {"missing"},  # -1 degree: a slight turn; without its support, on the table
+         "objects[].level": {"zero"}}  # the lowest board of its fixture, which may leave too little room above
 LAYOUT = "layout"  # valid, or refused because objects overlap or leave the table (depends on the other objects)
 
 

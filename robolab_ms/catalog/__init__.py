@@ -93,6 +93,7 @@ class CatalogObject:
     source: dict[str, Any]
     license: str
     is_container: bool = False
+    is_fixture: bool = False  # built kinematic where the scene puts it: no jitter, no push moves it (shelves)
     parts: tuple[Part, ...] = field(default=(), repr=False)
     interior: tuple[float, float, float] | None = None
     recorded_dimensions: tuple[float, float, float] | None = None
@@ -144,6 +145,19 @@ class CatalogObject:
         return np.stack([np.min(lows, axis=0), np.max(highs, axis=0)])
 
     @cached_property
+    def levels(self) -> tuple[float, ...]:
+        """Heights (object frame, lowest first) of the tops of the object's boards: its collision pieces that
+        reach over at least half the object's extent along x and along y (a shelf's levels, a bin's floor)."""
+        if self.parts:
+            boxes = [(np.asarray(p.position) - p.half_extent(), np.asarray(p.position) + p.half_extent())
+                     for p in self.parts]  # fmt: skip
+        else:
+            boxes = [(hull.min(axis=0), hull.max(axis=0)) for hull in self.hulls]
+        extent = self.exact_bounds[1] - self.exact_bounds[0]
+        tops = {round(float(high[2]), 5) for low, high in boxes if ((high - low)[:2] >= extent[:2] / 2).all()}
+        return tuple(sorted(tops))
+
+    @cached_property
     def volume(self) -> float:
         """Volume of the collision geometry (m^3)."""
         if self.parts:
@@ -162,7 +176,8 @@ class CatalogObject:
         return [package_file(self.source["package"], path) for path in self.source["paths"]]
 
     def build(self, scene: ManiSkillScene | sapien.Scene, name: str, initial_pose: sapien.Pose) -> Actor:
-        """Build this object as a dynamic actor called `name` (in a ManiSkill scene, or a plain SAPIEN scene)."""
+        """Build this object as an actor called `name` (in a ManiSkill scene, or a plain SAPIEN scene): dynamic, or
+        kinematic for a fixture (it stays where it is put; nothing the robot or other objects do moves it)."""
         import sapien
 
         builder = visual_mesh_builder(scene)
@@ -172,7 +187,7 @@ class CatalogObject:
         else:
             self._add_mesh(builder, material)
         builder.initial_pose = initial_pose
-        return builder.build(name=name)
+        return builder.build_kinematic(name=name) if self.is_fixture else builder.build(name=name)
 
     def _render_materials(self) -> list:
         """One material per colour of the object (tint 0, 1, ...), each with an image texture made from that
@@ -274,7 +289,7 @@ CATALOG_VERSION = 1
 def _read_object(name: str, fields: Fields) -> CatalogObject:
     fields.only([
         "class", "description", "colors", "rgba", "mass", "friction", "restitution", "source", "license", "container",
-        "interior", "dimensions", "transform", "collision",
+        "interior", "dimensions", "transform", "collision", "fixture",
     ])  # fmt: skip
     colors = fields.get("colors", list)
     for index, color in enumerate(colors):
@@ -295,6 +310,7 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         raise friction.error("dynamic", f"must be between 0 and static ({static_friction}), got {dynamic_friction}")
     mass = fields.positive("mass", MAX_MASS, unit="kg")
     is_container = fields.get("container", bool, False)
+    is_fixture = fields.get("fixture", bool, False)
     interior = fields.number_list("interior", 3, None, low=0.0, high=MAX_OBJECT_SIZE, above=True, unit="m")
     if interior is not None and not is_container:
         raise fields.error("interior", "is given for an object that is not a container",
@@ -369,6 +385,7 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         source=source_record,
         license=fields.get("license", str),
         is_container=is_container,
+        is_fixture=is_fixture,
         parts=tuple(parts),
         interior=tuple(interior) if interior else None,
         recorded_dimensions=tuple(dimensions) if dimensions else None,

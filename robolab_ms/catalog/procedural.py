@@ -275,6 +275,21 @@ def shelf(size: list[float], levels: int = 2, board: float = 0.015) -> list[Part
     return parts
 
 
+def rack(size: list[float], levels: int = 3, board: float = 0.015, post: float = 0.02, bottom: float = 0.0
+         ) -> list[Part]:  # fmt: skip
+    """An open rack of outer size (x deep, y wide, z tall), open on every side: four corner posts and `levels`
+    boards in the second colour, evenly spaced from the lowest (its underside `bottom` above the ground) to the
+    highest (flush with the posts' tops). A wire shelf is such a rack with thin solid boards."""
+    x, y, z = size
+    parts = [Part("box", (post / 2, post / 2, z / 2), (sx * (x - post) / 2, sy * (y - post) / 2, z / 2))
+             for sx in (-1, 1) for sy in (-1, 1)]  # fmt: skip
+    spacing = (z - board - bottom) / (levels - 1) if levels > 1 else 0.0
+    for level in range(levels):
+        underside = z - board if levels == 1 else bottom + level * spacing
+        parts.append(Part("box", (x / 2, y / 2, board / 2), (0.0, 0.0, underside + board / 2), IDENTITY, 1))
+    return parts
+
+
 def utensil(length: float, head: str, head_size: float, handle_width: float = 0.012,
             thickness: float = 0.006) -> list[Part]:
     """A utensil lying flat: a handle along x and a head (spoon, fork, ladle, spatula, knife) in the second colour."""
@@ -382,6 +397,7 @@ GENERATORS: dict[str, Callable[..., list[Part]]] = {
     "round_fruit": round_fruit,
     "cup": cup,
     "shelf": shelf,
+    "rack": rack,
     "utensil": utensil,
     "hammer": hammer,
     "drill": drill,

@@ -43,7 +43,9 @@ class ObjectPlacement:
     `tilt` is the resting orientation (quaternion w, x, y, z) before the yaw about the world z: identity for an
     object standing as the catalog defines it, a quarter turn about x or y to lay it on its side. `on` (scene field
     `rests_on`) names the object it starts on or in (a cube on a cube, a keyboard leaning into a bin); it moves
-    with that support."""
+    with that support. A fixture (a catalog object marked `fixture`, such as a shelf) stays where the scene file
+    puts it; `level` (scene field, with `rests_on` a fixture) is the board of the fixture the object stands on,
+    0 the lowest."""
 
     name: str
     asset: str
@@ -52,6 +54,8 @@ class ObjectPlacement:
     tilt: tuple[float, float, float, float] = IDENTITY_QUAT
     on: str | None = None  # the scene object it rests on (None: the table)
     z: float = 0.0  # height of its origin at the nominal place: resting on its support, plus SETTLE_CLEARANCE
+    fixture: bool = False  # a fixture of the catalog: built kinematic, never jittered
+    level: int | None = None  # with `on` a fixture: the index of the fixture's board it stands on (0 the lowest)
 
 
 @dataclass(frozen=True)
@@ -89,9 +93,13 @@ class SceneSpec:
         return chain
 
     def base(self, name: str) -> str:
-        """The object at the bottom of `name`'s pile, which stands on the table (`name` itself when it does)."""
-        chain = self.supports(name)
-        return chain[-1] if chain else name
+        """The object at the bottom of `name`'s pile, which stands on the table or on a fixture (`name` itself when
+        it does, or is a fixture): the jitter moves a pile as one piece with its base, and leaves fixtures still."""
+        for support in self.supports(name):
+            if self.placement(support).fixture:
+                break
+            name = support
+        return name
 
 
 def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
@@ -137,7 +145,7 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
     for index, entry in enumerate(objects):
         item = Fields(entry, file, f"objects[{index}]")
         items.append(item)
-        item.only(["name", "asset", "xy", "yaw_deg", "tilt", "rests_on"])
+        item.only(["name", "asset", "xy", "yaw_deg", "tilt", "rests_on", "level"])
         asset = item.name_in("asset", catalog.names(), "catalog object")
         name = item.get("name", str, asset)
         if not name.replace("_", "").isalnum() or not name.isascii():
@@ -168,12 +176,14 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
                                  "Write it as tilt: {axis: x, deg: 90} (axis x or y of the object, degrees), or a "
                                  "list of such turns")  # fmt: skip
         yaw = math.radians(item.number("yaw_deg", -360.0, 360.0, 0.0, unit="degrees"))
-        placements.append(ObjectPlacement(name, asset, (xy[0], xy[1]), yaw, tilt))
+        placements.append(ObjectPlacement(name, asset, (xy[0], xy[1]), yaw, tilt, fixture=catalog[asset].is_fixture))
     name = fields.get("name", str)
     if name != file.stem:
         raise fields.error("name", f"'{name}' differs from the file name '{file.stem}'", "Make them the same")
     placements = read_supports(items, placements)
+    placements = read_levels(items, placements, catalog)
     placements = rest_heights(items, placements, catalog)
+    check_fixture_places(items, placements, catalog, jitter_xy, jitter_yaw)
     check_layout(fields, placements, catalog, (table_size[0], table_size[1]))
     check_jittered_footprints(fields, placements, catalog, (table_size[0], table_size[1]), jitter_xy, jitter_yaw)
     return SceneSpec(
@@ -218,6 +228,41 @@ def read_supports(items: Sequence[Fields], placements: Sequence[ObjectPlacement]
     return supported
 
 
+def read_levels(items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog
+                ) -> list[ObjectPlacement]:  # fmt: skip
+    """The placements with their `level` field: the board of the fixture they rest on, needed when the fixture has
+    several levels. A fixture stands on the table, upright."""
+    by_name = {placement.name: placement for placement in placements}
+    leveled = []
+    for item, placement in zip(items, placements):
+        if placement.fixture:
+            if placement.on is not None:
+                raise item.error("rests_on", f"'{placement.name}' is a fixture, which stands on the table",
+                                 "Leave `rests_on` out")  # fmt: skip
+            if placement.tilt != IDENTITY_QUAT:
+                raise item.error("tilt", f"'{placement.name}' is a fixture, which stands upright", "Leave `tilt` out")
+        support = by_name[placement.on] if placement.on is not None else None
+        if support is None or not support.fixture:
+            if item.has("level"):
+                raise item.error("level", "is given for an object that does not rest on a fixture (a shelf)",
+                                 "Leave `level` out, or name a fixture in `rests_on`")  # fmt: skip
+            leveled.append(placement)
+            continue
+        levels = catalog[support.asset].levels
+        if not levels:
+            raise item.error("rests_on", f"fixture '{support.name}' has no boards to stand on",
+                             "Set the object on the table, or on another object")  # fmt: skip
+        if not item.has("level") and len(levels) > 1:
+            raise item.error("level", f"is missing: fixture '{support.name}' has {len(levels)} levels",
+                             f"Give level: 0 (the lowest board) to {len(levels) - 1} (the highest)")  # fmt: skip
+        level = item.get("level", int, 0)
+        if not 0 <= level < len(levels):
+            raise item.error("level", f"{level} is not a level of fixture '{support.name}', which has {len(levels)}",
+                             f"Give a level from 0 (the lowest board) to {len(levels) - 1} (the highest)")  # fmt: skip
+        leveled.append(replace(placement, level=level))
+    return leveled
+
+
 def rest_heights(items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog
                  ) -> list[ObjectPlacement]:  # fmt: skip
     """The placements with `z`, the height of each origin that rests the object on the table top or,
@@ -241,8 +286,20 @@ def rest_heights(items: Sequence[Fields], placements: Sequence[ObjectPlacement],
             support_rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(support.yaw), support.tilt)))
             support_pieces = placed_pieces(catalog[support.asset], support_rotation,
                                            np.array([*support.xy, height(below)]))  # fmt: skip
-            lift = drop_height(placed_pieces(entry, rotation, np.array([*placement.xy, 0.0])), support_pieces)
+            pieces = placed_pieces(entry, rotation, np.array([*placement.xy, 0.0]))
             item = items[index]
+            if placement.level is not None:  # lowered onto that board, past the ones above it
+                board_top = height(below) + catalog[support.asset].levels[placement.level]
+                support_pieces = [piece for piece in support_pieces if piece[:, 2].max() <= board_top + 1e-6]
+                boards = [piece for piece in support_pieces if piece[:, 2].max() >= board_top - 1e-6]
+                lift = drop_height(pieces, support_pieces)
+                on_board = drop_height(pieces, boards)
+                if lift is None or on_board is None or on_board < lift - 1e-4:
+                    raise item.error("xy", f"'{placement.name}' is not over level {placement.level} of "
+                                     f"'{placement.on}' (seen from above it misses that board)",
+                                     f"Move it over the board, or give another level")  # fmt: skip
+            else:
+                lift = drop_height(pieces, support_pieces)
             if lift is None:
                 raise item.error("xy", f"'{placement.name}' is not over its support '{placement.on}' (seen from above "
                                  "their outlines do not meet)", f"Move it over '{placement.on}', or leave `rests_on` out")
@@ -251,10 +308,52 @@ def rest_heights(items: Sequence[Fields], placements: Sequence[ObjectPlacement],
                                  f"'{placement.on}' ({(on_table - lift) * 100:.1f} cm above it there)",
                                  f"Move it over '{placement.on}', or leave `rests_on` out")  # fmt: skip
             z = max(on_table, lift)
-        heights[placement.name] = z + SETTLE_CLEARANCE
+        heights[placement.name] = z + (0.0 if placement.fixture else SETTLE_CLEARANCE)  # a fixture cannot settle
         return heights[placement.name]
 
     return [replace(placement, z=height(index)) for index, placement in enumerate(placements)]
+
+
+def check_fixture_places(items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog,
+                         jitter_xy: float, jitter_yaw: float) -> None:
+    """An object standing on a fixture's level stays clear of the rest of the fixture (its posts, the board above)
+    and has its centre over its board, at its nominal place and at the extremes of the jitter (which moves it on
+    the fixture; the fixture itself stays)."""
+    from robolab_ms.scene.support import overlap_depth, placed_pieces
+
+    by_name = {placement.name: placement for placement in placements}
+    for item, placement in zip(items, placements):
+        if placement.level is None:
+            continue
+        fixture = by_name[placement.on]
+        fixture_entry = catalog[fixture.asset]
+        fixture_rotation = quat_to_matrix(tuple(yaw_quat(fixture.yaw)))
+        fixture_pieces = placed_pieces(fixture_entry, fixture_rotation, np.array([*fixture.xy, fixture.z]))
+        board_top = fixture.z + fixture_entry.levels[placement.level]
+        boards = [piece for piece in fixture_pieces if abs(piece[:, 2].max() - board_top) <= 1e-6
+                  and ConvexHull(piece[:, :2]).volume > 0]  # fmt: skip
+        entry = catalog[placement.asset]
+        centre = (entry.bounds[0] + entry.bounds[1]) / 2
+        for dx in (-jitter_xy, 0.0, jitter_xy):
+            for dy in (-jitter_xy, 0.0, jitter_xy):
+                for turn in (-jitter_yaw, 0.0, jitter_yaw):
+                    rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(placement.yaw + turn), placement.tilt)))
+                    position = np.array([placement.xy[0] + dx, placement.xy[1] + dy, placement.z])
+                    where = "at its place" if dx == dy == turn == 0.0 else (
+                        f"at some poses the jitter allows (moved {dx * 100:+.1f}, {dy * 100:+.1f} cm, turned "
+                        f"{math.degrees(turn):+.0f} degrees)")  # fmt: skip
+                    depth = overlap_depth(placed_pieces(entry, rotation, position), fixture_pieces)
+                    if depth > OVERLAP_TOLERANCE:
+                        raise item.error("xy", f"'{placement.name}' on level {placement.level} of '{fixture.name}' "
+                                         f"reaches {depth * 100:.1f} cm into the fixture (a post or the board above) "
+                                         f"{where}", "Move it further onto the board, choose a level with more room "
+                                         "above, or lower the scene's jitter")  # fmt: skip
+                    xy = (rotation @ centre + position)[:2]
+                    if not any(_inside(xy[None], board[ConvexHull(board[:, :2]).vertices, :2], 0.0)
+                               for board in boards):  # fmt: skip
+                        raise item.error("xy", f"'{placement.name}' has its centre off level {placement.level} of "
+                                         f"'{fixture.name}' {where}", "Move it further onto the board, or lower the "
+                                         "scene's jitter")  # fmt: skip
 
 
 def read_tilt(tilt: Fields) -> tuple[float, float, float, float]:
@@ -405,13 +504,14 @@ def check_jittered_footprints(fields: Fields, placements: Sequence[ObjectPlaceme
     place (check_layout): an object hanging over the edge in some episodes would tip or fall in those only."""
     table_low = np.asarray(TABLE_CENTER_XY) - np.asarray(table_size) / 2
     table_high = np.asarray(TABLE_CENTER_XY) + np.asarray(table_size) / 2
-    xy_of = {placement.name: placement.xy for placement in placements}
-    support_of = {placement.name: placement.on for placement in placements}
+    by_name = {placement.name: placement for placement in placements}
     for index, placement in enumerate(placements):
-        base = placement.name
-        while support_of[base] is not None:
-            base = support_of[base]
-        low, high = jittered_extent(catalog[placement.asset], placement, jitter_xy, jitter_yaw, xy_of[base])
+        base = placement.name  # the bottom of its pile, or the object on a fixture (fixtures stay still)
+        while by_name[base].on is not None and not by_name[by_name[base].on].fixture:
+            base = by_name[base].on
+        still = placement.fixture
+        low, high = jittered_extent(catalog[placement.asset], placement, 0.0 if still else jitter_xy,
+                                    0.0 if still else jitter_yaw, by_name[base].xy)  # fmt: skip
         beyond_low, beyond_high = table_low - low, high - table_high
         for axis in range(2):
             over = max(beyond_low[axis], beyond_high[axis])

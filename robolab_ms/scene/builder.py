@@ -188,6 +188,8 @@ class RoboLabSceneBuilder(SceneBuilder):
                                    np.array([draw[1][index] for draw in draws]))
                   for index, placement in enumerate(self.spec.objects)}  # fmt: skip
         for placement in self.spec.objects:
+            if placement.fixture:
+                continue  # a fixture (kinematic) stays where build() put it
             base = self.spec.placement(self.spec.base(placement.name))
             offset, turn = jitter[base.name]
             arm = np.asarray(placement.xy) - np.asarray(base.xy)

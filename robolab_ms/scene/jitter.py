@@ -41,6 +41,7 @@ class JitterSampler:
             points = _outline_points(catalog[placement.asset]) @ quat_to_matrix(tuple(placement.tilt))[:2].T
             self.outlines.append(points[ConvexHull(points).vertices])
         self.is_container = [catalog[placement.asset].is_container for placement in placements]
+        self.still = {position for position, placement in enumerate(placements) if placement.fixture}  # shelves
         nominal = self.footprints(np.zeros((len(self.names), 2)), np.zeros(len(self.names)))
         self.pairs = []  # (i, j, kind, allowed overlap) for objects of different piles that could meet
         for i in range(len(self.names)):
@@ -102,12 +103,14 @@ class JitterSampler:
         for position in range(count):  # one draw per object, whether it is used or not
             offsets[position] = rng.uniform(-xy_range, xy_range, size=(2,))
             turns[position] = rng.uniform(-yaw_range, yaw_range, size=(1,))[0]
+        for position in self.still:  # a fixture stays where the scene file puts it
+            offsets[position], turns[position] = 0.0, 0.0
         redraws = 0
         crowded = self.conflicts(offsets, turns)
         while crowded:
             redraws += 1
             scale = max(0.0, 1.0 - redraws / NARROWING_DRAWS)
-            for pile in sorted(crowded):
+            for pile in sorted(crowded - self.still):
                 offsets[pile] = rng.uniform(-xy_range, xy_range, size=(2,)) * scale
                 turns[pile] = rng.uniform(-yaw_range, yaw_range, size=(1,))[0] * scale
             crowded = self.conflicts(offsets, turns)

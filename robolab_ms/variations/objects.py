@@ -123,16 +123,20 @@ def _bodies(env: Any) -> dict[str, _Body]:
 def _groups(scene: Any, catalog: Any) -> list[tuple[str, ...]]:
     """Objects that move together: each container with the objects its outline holds at the layout (container
     first), an object with the objects resting on it (scene field `rests_on`), every other object alone; in scene
-    order."""
+    order. Fixtures (shelves) and what stands on them stay where they are."""
     from robolab_ms.scene import OVERLAP_TOLERANCE, _inside, footprint
 
     outlines = {p.name: footprint(catalog[p.asset], p) for p in scene.objects}
-    held: dict[str, str] = {p.name: scene.base(p.name) for p in scene.objects if p.on is not None}  # piles
+    still = {p.name for p in scene.objects
+             if p.fixture or any(scene.placement(support).fixture for support in scene.supports(p.name))}  # fmt: skip
+    held: dict[str, str] = {p.name: scene.base(p.name) for p in scene.objects
+                            if p.on is not None and p.name not in still}  # piles  # fmt: skip
     for outer in scene.objects:
         if not catalog[outer.asset].is_container:
             continue
         for inner in scene.objects:
-            if inner.name != outer.name and inner.name not in held and not catalog[inner.asset].is_container:
+            if (inner.name != outer.name and inner.name not in held and inner.name not in still
+                    and not catalog[inner.asset].is_container):  # fmt: skip
                 if _inside(outlines[inner.name], outlines[outer.name], OVERLAP_TOLERANCE):
                     held[inner.name] = outer.name
     for name in list(held):  # a pile inside a container moves with the container
@@ -140,7 +144,7 @@ def _groups(scene: Any, catalog: Any) -> list[tuple[str, ...]]:
             held[name] = held[held[name]]
     groups = []
     for placement in scene.objects:
-        if placement.name in held:
+        if placement.name in held or placement.name in still:
             continue
         groups.append((placement.name, *[name for name, outer in held.items() if outer == placement.name]))
     return groups
