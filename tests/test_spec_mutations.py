@@ -132,6 +132,9 @@ def expectation(kind: str, data: dict, path: str, mutation: str, default: str) -
         for index, other in enumerate(data["objects"]):
             if renamed is not None and renamed != new_name and other.get("rests_on") == renamed:
                 return f"objects[{index}].rests_on"  # what rests on it names it by its old name
+    if kind == "scene" and matches("objects[].rests_on", path) and mutation == "missing":
+        if "level" in data["objects"][steps[1]]:
+            return f"objects[{steps[1]}].level"  # a level of no fixture
     if kind == "scene" and path in ("jitter", "jitter.xy", "jitter.yaw_deg") and mutation == "missing":
         return LAYOUT  # the default jitter may be larger than the file's, and carry an object past the table's edge
     if any(matches(pattern, path) and mutation in names for pattern, names in VALID[kind].items()):
