@@ -337,7 +337,7 @@ def run_mutations(kind: str, name: str, data: dict, file: Path, load: Callable[[
                 problems.append(f"{where}refused although valid: {error}")
             elif expected == LAYOUT:
                 if not (matches("objects[].xy", error.field)
-                        and any(word in error.problem for word in ("overlaps", "table", "support"))):
+                        and any(word in error.problem for word in ("overlaps", "table", "support", "level"))):
                     problems.append(f"{where}refused, but not for the layout: {error}")
             elif not field_matches(error.field, expected, mutation, isinstance(originals[path], dict)):
                 problems.append(f"{where}the error names field '{error.field}', not '{expected}': {error}")
