@@ -132,6 +132,8 @@ def expectation(kind: str, data: dict, path: str, mutation: str, default: str) -
         for index, other in enumerate(data["objects"]):
             if renamed is not None and renamed != new_name and other.get("rests_on") == renamed:
                 return f"objects[{index}].rests_on"  # what rests on it names it by its old name
+    if kind == "scene" and matches("objects[].tilt", path) and mutation == "mapping":
+        return f"{path}.x"  # a list of turns replaced by a mapping, read as one turn: its key x is unknown
     if kind == "scene" and matches("objects[].rests_on", path) and mutation == "missing":
         if "level" in data["objects"][steps[1]]:
             return f"objects[{steps[1]}].level"  # a level of no fixture
