@@ -32,7 +32,6 @@ class JitterSampler:
         self.names = spec.object_names()
         index = {name: position for position, name in enumerate(self.names)}
         self.base_of = np.array([index[spec.base(name)] for name in self.names])
-        self.piles = sorted(set(self.base_of.tolist()))
         placements = spec.objects
         self.xy = np.array([placement.xy for placement in placements])
         self.yaw = np.array([placement.yaw for placement in placements])
@@ -54,7 +53,6 @@ class JitterSampler:
                     continue
                 allowed = max(_overlap(nominal[i], nominal[j]), -JITTER_CLEARANCE)
                 self.pairs.append((i, j, "apart", allowed))
-        self.reach = np.array([np.linalg.norm(outline, axis=1).max() for outline in self.outlines])
 
     def _containment(self, outlines: list[np.ndarray], i: int, j: int) -> tuple[int, int] | None:
         """(inner, outer) when one object stands inside the other's container outline at the nominal places."""
