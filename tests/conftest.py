@@ -31,3 +31,22 @@ def lab(predicate_lab):
     """The PredicateLab environment, freshly reset to seed 0."""
     predicate_lab.reset(seed=0)
     return predicate_lab
+
+
+@pytest.fixture()
+def llm_server(tmp_path):
+    """Start tests/llm_server.py (a real OpenAI-compatible HTTP server) with scripted answers: call it with the list
+    of answers (and json_mode=False for a server refusing response_format); every server started is stopped after
+    the test."""
+    from llm_server import LLMServer
+
+    started = []
+
+    def start(answers: list, json_mode: bool = True) -> LLMServer:
+        server = LLMServer(answers, tmp_path / f"llm_server_{len(started)}", json_mode=json_mode)
+        started.append(server)
+        return server
+
+    yield start
+    for server in started:
+        server.stop()
