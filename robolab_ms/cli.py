@@ -376,6 +376,24 @@ def _add_export_commands(commands) -> None:
     lerobot.set_defaults(run=_cmd_export_lerobot)
 
 
+def _add_generate_commands(commands) -> None:
+    from robolab_ms.generation import commands as generation
+
+    generate = commands.add_parser("generate", help="generate scenes (and tasks) with an LLM or offline, checked like "
+                                   "hand-written ones", description="Generated content is data: it passes the same "
+                                   "checks as hand-written files. See docs/generation.md.")  # fmt: skip
+    kinds = generate.add_subparsers(dest="generate_kind", required=True, metavar="KIND")
+    scene = kinds.add_parser(
+        "scene", help="a scene file from a prompt: relations, solvers, physics settle, feedback rounds",
+        description="The model (--llm openai or offline) picks catalog objects and placement relations; a physical "
+        "solver puts objects on, in and stacked on others, a spatial solver places the rest in the reachable area; "
+        "a physics settle (no object may move more than 2 cm in 300 steps) checks it. Failures go back to the model "
+        "for at most --rounds rounds. Writes FILE.yaml, its preview FILE.png and FILE.transcript.json.",
+    )  # fmt: skip
+    generation.add_scene_arguments(scene)
+    scene.set_defaults(run=generation.run_scene)
+
+
 def _catalog_file(args: argparse.Namespace) -> Path:
     from robolab_ms.content import content_dir
 
@@ -601,6 +619,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="largest state difference still counted as the same (default: 0, bit-identical)")  # fmt: skip
     replay.set_defaults(run=_cmd_replay)
     _add_export_commands(commands)
+    _add_generate_commands(commands)
 
     serving = commands.add_parser(
         "serve",

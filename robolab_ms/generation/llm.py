@@ -182,3 +182,21 @@ class Transcript:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(self.to_dict(), indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
         return path
+
+
+def add_endpoint_arguments(parser: Any) -> None:
+    """The options every `robolab generate` command shares: the backend and the endpoint's settings."""
+    parser.add_argument("--llm", choices=("openai", "offline"), default="offline",
+                        help="openai: an OpenAI-compatible chat endpoint (--base-url, --model, --api-key or "
+                        "ROBOLAB_LLM_BASE_URL / ROBOLAB_LLM_MODEL / ROBOLAB_LLM_API_KEY); offline: the deterministic "
+                        "generator, no network (default)")  # fmt: skip
+    parser.add_argument("--base-url", help="the endpoint, e.g. http://localhost:8000/v1 (default $ROBOLAB_LLM_BASE_URL, "
+                        "then $OPENAI_BASE_URL)")  # fmt: skip
+    parser.add_argument("--model", help="the model name the endpoint serves (default $ROBOLAB_LLM_MODEL)")
+    parser.add_argument("--api-key", help="the endpoint's key (default $ROBOLAB_LLM_API_KEY, then $OPENAI_API_KEY)")
+    parser.add_argument("--timeout", type=float, default=120.0, help="seconds to wait for an answer (default 120)")
+
+
+def chat_client_from_args(args: Any) -> ChatClient:
+    """The HTTP client for `--llm openai` and its options."""
+    return ChatClient(endpoint_settings(args.base_url, args.model, args.api_key), timeout=args.timeout)
