@@ -119,6 +119,7 @@ def _solver_rounds(prompt: str, out: Path, model: JsonModel, objects: list[str] 
     system = system_prompt(catalog, objects)
     transcript.system = system
     messages = [{"role": "user", "content": _user_prompt(prompt, objects)}]
+    judge_first_answer = not result.requested
     for round_number in range(1, rounds + 1):
         last = round_number == rounds
         result.rounds = round_number
@@ -129,8 +130,9 @@ def _solver_rounds(prompt: str, out: Path, model: JsonModel, objects: list[str] 
             feedback = [str(exc)]
         if answer is not None:
             proposal = read_proposal(answer, catalog)
-            if not result.requested and round_number == 1:
+            if judge_first_answer:  # the first answer that reads as JSON says what was asked for
                 result.requested = [r for r in proposal.relations if r.kind not in ("random_yaw", "anywhere")]
+                judge_first_answer = False
             feedback = list(proposal.problems)
             missing = [name for name in objects or [] if name not in proposal.objects.values()]
             if missing:
