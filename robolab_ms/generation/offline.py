@@ -82,7 +82,8 @@ class OfflineSceneModel:
             nouns = {part for part in parts if part.isalpha() and len(part) > 2 and part not in MODIFIERS
                      and part not in self.colours and part not in STOP and part != "and"}  # fmt: skip
             phrases = {*nouns, " ".join(parts), entry.object_class}
-            phrases |= {" ".join(parts[i : i + 2]) for i in range(len(parts) - 1)}
+            phrases |= {" ".join(parts[i : i + 2]) for i in range(len(parts) - 1)
+                        if parts[i] in nouns and parts[i + 1] in nouns}  # fmt: skip
             for phrase in phrases:
                 self.words.setdefault(phrase, []).append(name)
 
@@ -154,8 +155,8 @@ class OfflineSceneModel:
                 index = start + 1
                 continue
             definite = start > 0 and tokens[start - 1] in ("the", "that", "this", "same")
-            earlier = [m for m in mentions if m.refers_to is None and m.asset in candidates
-                       and all(colour in self.catalog[m.asset].colors for colour in colours)]  # fmt: skip
+            earlier = [m for m in mentions if m.refers_to is None and m.asset in candidates]
+            earlier = [m for m in earlier if all(c in self.catalog[m.asset].colors for c in colours)] or earlier
             if definite and not counted and earlier:
                 mentions.append(Mention(start, index + length, earlier[-1].asset, refers_to=earlier[-1]))
             else:
@@ -198,58 +199,97 @@ class OfflineSceneModel:
         return [best[0]] * count
 
     def _relations(self, tokens: list[str], mentions: list[Mention]) -> list[dict]:
-        """Relations between consecutive groups of mentions ("A and B in C"), stacks, rows, facing, scattered."""
+        """Relations between the prompt's clauses: "A <relation words> B" with nothing but words between them, "A
+        with B inside", lists joined by "and" ("A and B in C"), stacks, rows, facing, scattered."""
         containers = {m.name for m in mentions if self.catalog[m.asset].is_container}
-        groups: list[list[Mention]] = []
+        units: list[list[Mention]] = []  # mentions of one phrase ("three blocks") form one unit
         for mention in mentions:
-            if groups:
-                previous = groups[-1][-1]
-                gap = tokens[previous.end : mention.start]
-                if previous.start == mention.start or (gap and set(gap) <= CONNECTORS | {"the", "a", "an"}):
-                    groups[-1].append(mention)
-                    continue
-            groups.append([mention])
+            if units and units[-1][0].start == mention.start:
+                units[-1].append(mention)
+            else:
+                units.append([mention])
         relations: list[dict] = []
-        stacks: dict[int, list[str]] = {}
-        for number, group in enumerate(groups):
+        groups: list[list[Mention]] = []
+        group: list[Mention] = []
+        group_is_reference = False
+        for number, unit in enumerate(units):
+            if number == 0:
+                group = list(unit)
+                groups.append(group)
+                continue
+            gap_tokens = tokens[units[number - 1][-1].end : unit[0].start]
+            gap = _without_row_words(" ".join(gap_tokens))
+            separated = bool({",", ".", ";", "and"} & set(gap_tokens))
+            relation = None if separated else _relation_words(gap, unit[0].name in containers)
+            if not separated and "with" in gap_tokens:  # "a tray with a mug (inside)"
+                host = units[number - 1][-1]
+                after = []
+                for token in tokens[unit[-1].end :]:
+                    if token in (",", ".", ";", "and"):
+                        break
+                    after.append(token)
+                kind = "on_top_of" if "on" in after or host.name not in containers else "inside"
+                relations.extend({"relation": kind, "object": m.name, "reference": host.name} for m in unit)
+                group, group_is_reference = list(unit), True
+                groups.append(group)
+                continue
+            if relation is not None:
+                kind, distance = relation
+                for subject in group:
+                    if subject.name == unit[0].name:
+                        continue
+                    item = {"relation": kind, "object": subject.name, "reference": unit[0].name}
+                    if distance is not None and kind in ("left_of", "right_of", "in_front_of", "behind", "next_to"):
+                        item["distance"] = distance
+                    if kind == "aligned_with":
+                        item["axis"] = "row"
+                    relations.append(item)
+                group, group_is_reference = list(unit), True
+                groups.append(group)
+                continue
+            listing = set(gap_tokens) <= CONNECTORS | {"the", "a", "an"} and not group_is_reference
+            if listing and ("and" in gap_tokens or not self._followed_by_relation(tokens, unit, units, number)):
+                group.extend(unit)
+            else:
+                group, group_is_reference = list(unit), False
+                groups.append(group)
+        stacks: list[list[str]] = []
+        for group in groups:
             before = " ".join(tokens[max(0, group[0].start - 4) : group[0].start])
-            after = " ".join(tokens[group[-1].end : group[-1].end + 2])
+            after = " ".join(tokens[group[-1].end : group[-1].end + 4])
             names = [m.name for m in group]
-            if len(group) >= 2 and (re.search(r"\bstack(ed)? of\b|\bpile of\b|\btower of\b", before)
+            if len(group) >= 2 and (re.search(r"\b(stack|pile|tower)(ed)? of\b", before)
                                     or re.search(r"^(stacked|in a stack|piled)\b", after)):  # fmt: skip
-                stacks[number] = names
+                stacks.append(names)
                 relations.append({"relation": "stacked", "objects": names})
             if len(group) >= 2 and re.search(r"^(in a row|in a line|side by side|lined up)\b", after):
-                for other in names[1:]:
-                    relations.append({"relation": "aligned_with", "object": other, "reference": names[0],
-                                      "axis": "row"})  # fmt: skip
-            clause = " ".join(tokens[group[-1].end : group[-1].end + 4])
-            if re.search(r"^(facing|turned towards|pointing at) (the robot|you)\b", clause):
-                for name in names:
-                    relations.append({"relation": "facing", "object": name, "reference": "robot"})
-            if re.search(r"^(scattered|at random|randomly|messily)\b", after) or re.search(r"\b(scattered|random|messy)\b\W*$", before):
-                for name in names:
-                    relations.append({"relation": "random_yaw", "object": name})
-        for number in range(1, len(groups)):
-            subjects, reference = groups[number - 1], groups[number][0]
-            gap = " ".join(tokens[subjects[-1].end : reference.start])
-            relation = _relation_words(gap, reference.name in containers)
-            if relation is None:
-                continue
-            kind, distance = relation
-            if kind == "facing" and reference.start == reference.end:
-                continue
-            targets = [subjects[0]] if number - 1 in stacks else subjects
-            for subject in targets:
-                if subject.name == reference.name:
-                    continue
-                item = {"relation": kind, "object": subject.name, "reference": reference.name}
-                if distance is not None and kind in ("left_of", "right_of", "in_front_of", "behind", "next_to"):
-                    item["distance"] = distance
-                if kind == "aligned_with":
-                    item["axis"] = "row"
-                relations.append(item)
-        return _without_repeats(relations)
+                relations.extend({"relation": "aligned_with", "object": other, "reference": names[0], "axis": "row"}
+                                 for other in names[1:])  # fmt: skip
+            if re.search(r"^(facing|turned towards|pointing at) (the robot|you)\b", after):
+                relations.extend({"relation": "facing", "object": name, "reference": "robot"} for name in names)
+            if re.search(r"^(scattered|at random|randomly|messily)\b", after):
+                relations.extend({"relation": "random_yaw", "object": name} for name in names)
+        bottom = {name: stack[0] for stack in stacks for name in stack[1:]}  # relations of a stack: its bottom's
+        for relation in relations:
+            if relation["relation"] != "stacked":
+                for key in ("object", "reference"):
+                    if relation.get(key) in bottom:
+                        relation[key] = bottom[relation[key]]
+        return [r for r in _without_repeats(relations) if r["relation"] == "stacked" or r["object"] != r["reference"]]
+
+    def _followed_by_relation(self, tokens: list[str], unit: list[Mention], units: list[list[Mention]],
+                              number: int) -> bool:  # fmt: skip
+        """Whether relation words (and no comma) lead from this unit to the next one."""
+        if number + 1 >= len(units):
+            return False
+        gap_tokens = tokens[unit[-1].end : units[number + 1][0].start]
+        if {",", ".", ";", "and"} & set(gap_tokens):
+            return False
+        return _relation_words(_without_row_words(" ".join(gap_tokens)), False) is not None or "with" in gap_tokens
+
+
+def _without_row_words(gap: str) -> str:
+    return re.sub(r"\b(in a row|in a line|side by side|lined up|in a stack)\b", " ", gap)
 
 
 def _without_repeats(relations: list[dict]) -> list[dict]:

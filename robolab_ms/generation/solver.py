@@ -28,7 +28,8 @@ from robolab_ms.generation.proposal import DIRECTIONS, ROBOT, Relation, ScenePro
 from robolab_ms.scene import SAFE_PLACEMENT, _outline_points
 
 REACH = {"x": (0.20, 0.85), "y": (-0.45, 0.45)}  # m: where outlines must lie (the robot reaches all of it)
-GAP = 0.03  # m: free space kept between outlines on the table (room for the fingers)
+GAP = 0.03  # m: free space the solver aims for between outlines on the table (room for the fingers)
+MIN_GAP = 0.01  # m: the least free space it accepts
 ITERATIONS = 250
 CONE_SHARE = 0.15  # the sideways offset of a direction target is at most this share of its distance
 TOLERANCE = 0.004  # m
@@ -297,8 +298,15 @@ def solve_layout(proposal: SceneProposal, catalog: Catalog, seed: int = 0) -> La
                                    f"space (missed by {victim.error(bodies) * 100:.1f} cm)"))  # fmt: skip
             continue
         crowded = [body for body in bodies.values() if body.fixed and _overlaps(body, bodies)]
-        if not crowded:
-            break
+        if not crowded:  # a stalemate: the relations hold but hold objects too close; relax one that ties them
+            touching = {body.name for body in bodies.values() if _overlaps(body, bodies)}
+            tied = [c for c in active if c.subject in touching or c.reference in touching]
+            if not tied:
+                break
+            victim = max(tied, key=lambda constraint: constraint.relation.index)
+            active.remove(victim)
+            layout.relaxed.append((victim.relation, "it kept objects closer than 1 cm to each other"))
+            continue
         crowded[-1].fixed = False
         layout.relaxed.append((fixed[crowded[-1].name], "that place overlaps other objects or leaves the reachable "
                                "area, so the object was moved"))  # fmt: skip
@@ -404,7 +412,7 @@ def _overlaps(body: Body, bodies: dict[str, Body]) -> bool:
         low, high = REACH[key]
         if polygon[:, low_high].min() < low - TOLERANCE or polygon[:, low_high].max() > high + TOLERANCE:
             return True
-    return any(separation(polygon, other.polygon())[0] > -GAP + TOLERANCE + 0.002
+    return any(separation(polygon, other.polygon())[0] > -MIN_GAP
                for other in bodies.values() if other is not body)  # fmt: skip
 
 
