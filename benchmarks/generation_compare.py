@@ -96,7 +96,7 @@ def render_tables(rows: list[dict]) -> str:
                      f"({100 * stable / len(mine):.0f} %) | {placed}/{asked} ({100 * placed / asked:.0f} %) | "
                      f"{collisions:.2f} | {written}/{len(mine)} | {seconds:.2f} |")  # fmt: skip
     lines += ["", "Per relation kind (satisfied / requested, both methods on the same relations):", ""]
-    return "\n".join(lines) + kinds_table(rows)
+    return "\n".join(lines) + "\n" + kinds_table(rows)
 
 
 def kinds_table(rows: list[dict]) -> str:
