@@ -53,7 +53,6 @@ from robolab_ms.scene import (
     SceneSpec,
     quat_multiply,
     read_scene,
-    resting_height,
     yaw_quat,
 )
 
@@ -123,7 +122,8 @@ def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> 
     layer = Sdf.Layer.CreateAnonymous(".usda")
     stage = Usd.Stage.Open(layer)
     _stage_metadata(stage, f"Scene '{spec.name}' of robolab_ms, written by `robolab scene export`. Frame: the "
-                    "robot base is the origin, x away from the robot, y to its left, z up; the table top is z = 0.")  # fmt: skip
+                    "robot base is the origin, x away from the robot, y to its left, z up; the table top is "
+                    "z = 0.")  # fmt: skip
     physics = UsdPhysics.Scene.Define(stage, PHYSICS_SCENE)
     physics.CreateGravityDirectionAttr(pxr.Gf.Vec3f(0.0, 0.0, -1.0))
     physics.CreateGravityMagnitudeAttr(GRAVITY)
@@ -354,7 +354,8 @@ def _mesh_prim(stage, path: str, points: np.ndarray, faces: np.ndarray, normals:
     mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(faces), 3, dtype=np.int32)))
     mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.asarray(faces, dtype=np.int32).reshape(-1)))
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-    mesh.CreateExtentAttr([pxr.Gf.Vec3f(*map(float, points.min(axis=0))), pxr.Gf.Vec3f(*map(float, points.max(axis=0)))])
+    low, high = points.min(axis=0), points.max(axis=0)
+    mesh.CreateExtentAttr([pxr.Gf.Vec3f(*map(float, low)), pxr.Gf.Vec3f(*map(float, high))])
     if normals is not None:
         mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(normals, dtype=np.float32)))
         mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
@@ -594,11 +595,13 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
         found.append((prim, name))
     if unresolved:
         raise RoboLabError(f"{usd}: {len(unresolved)} bod{'y' if len(unresolved) == 1 else 'ies'} without a catalog "
-                           "object: " + "; ".join(unresolved) + ". Map them in a YAML file given with --map FILE.yaml "
-                           "(asset path, file name or prim name: catalog name, or null to leave the prim out)")  # fmt: skip
+                           "object: " + "; ".join(unresolved) + ". Map them in a YAML file given with --map "
+                           "FILE.yaml (asset path, file name or prim name: catalog name, or null to leave the prim "
+                           "out)")  # fmt: skip
     if not found:
         raise RoboLabError(f"{usd}: no bodies found under {root.GetPath()} (prims with robolab:catalog, a "
-                           "RigidBodyAPI, a reference or payload). Map prim names to catalog objects with --map FILE.yaml")  # fmt: skip
+                           "RigidBodyAPI, a reference or payload). Map prim names to catalog objects with --map "
+                           "FILE.yaml")  # fmt: skip
     table_top, table_size, table_centre = _table_geometry(table_prim, convert, notes)
     bodies = []
     taken = set(RESERVED_NAMES)
@@ -621,8 +624,9 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
     _infer_supports([body for body in bodies if not body.known_support], bodies, catalog)
     data = _scene_data(out.stem, root, table_prim, table_size, bodies, catalog, usd)
     if abs(table_centre[0] - TABLE_CENTER_XY[0]) > 1e-3 or abs(table_centre[1] - TABLE_CENTER_XY[1]) > 1e-3:
-        notes.append(f"the table's centre is at x, y = {table_centre[0]:.3f}, {table_centre[1]:.3f} m in the USD file; "
-                     f"scenes put it at {TABLE_CENTER_XY[0]}, {TABLE_CENTER_XY[1]} (the bodies keep their x, y)")  # fmt: skip
+        notes.append(f"the table's centre is at x, y = {table_centre[0]:.3f}, {table_centre[1]:.3f} m in the USD "
+                     f"file; scenes put it at {TABLE_CENTER_XY[0]}, {TABLE_CENTER_XY[1]} (the bodies keep their x, "
+                     "y)")  # fmt: skip
     _write_scene_file(data, out, usd)
     from robolab_ms.errors import SpecError
 
@@ -642,7 +646,8 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
 
 
 def _frame_conversion(stage, notes: list[str]) -> np.ndarray:
-    """The 4x4 matrix (column vectors) from the stage's units and up axis to metres and z up."""
+    """The 4x4 matrix (column vectors) from the stage's units and up axis to metres and z up (USD reads a stage
+    without metersPerUnit as centimetres, one without upAxis as Y up)."""
     pxr = _pxr()
     meters = pxr.UsdGeom.GetStageMetersPerUnit(stage)
     convert = np.diag([meters, meters, meters, 1.0])
@@ -651,7 +656,7 @@ def _frame_conversion(stage, notes: list[str]) -> np.ndarray:
     if pxr.UsdGeom.GetStageUpAxis(stage) == pxr.UsdGeom.Tokens.y:
         y_to_z = np.array([[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])  # +90 degrees about x
         convert = y_to_z @ convert
-        notes.append("the stage is Y up; turned to Z up (x stays, y becomes z)")
+        notes.append("the stage is Y up; turned to Z up (x stays, y becomes z), bodies as modelled y up")
     return convert
 
 
@@ -706,16 +711,17 @@ def _world_pose(prim, convert: np.ndarray, notes: list[str]) -> tuple[np.ndarray
     if not prim.IsA(pxr.UsdGeom.Xformable):
         raise RoboLabError(f"{prim.GetPath()}: a body must be an Xformable prim (an Xform), not a {prim.GetTypeName()}")
     matrix = pxr.UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(pxr.Usd.TimeCode.Default())
-    world = convert @ np.array(matrix, dtype=np.float64).T  # USD multiplies row vectors: transpose to columns
+    # USD multiplies row vectors: transpose to columns. The stage's units and up axis are also the body's own
+    # (an asset modelled y up in centimetres), so the conversion applies on both sides of its transform.
+    world = convert @ np.array(matrix, dtype=np.float64).T @ np.linalg.inv(convert)
     linear = world[:3, :3]
     scale = np.linalg.norm(linear, axis=0)
     rotation = linear / scale
     if np.linalg.det(rotation) < 0 or np.abs(rotation.T @ rotation - np.eye(3)).max() > 1e-6:
         raise RoboLabError(f"{prim.GetPath()}: its transform mirrors or shears the body; give it a rotation, "
                            "translation and uniform scale only")  # fmt: skip
-    meters = np.linalg.norm(convert[:3, 0])
-    if np.abs(scale / meters - 1.0).max() > 1e-6:
-        notes.append(f"{prim.GetPath()}: scaled by {', '.join(f'{s / meters:g}' for s in scale)} in the USD file; "
+    if np.abs(scale - 1.0).max() > 1e-6:
+        notes.append(f"{prim.GetPath()}: scaled by {', '.join(f'{s:g}' for s in scale)} in the USD file; "
                      "the catalog object keeps its own size")  # fmt: skip
     return world[:3, 3].copy(), rotation
 
@@ -731,7 +737,8 @@ def _table_geometry(table_prim, convert: np.ndarray, notes: list[str]) -> tuple[
     cache = pxr.UsdGeom.BBoxCache(pxr.Usd.TimeCode.Default(), [pxr.UsdGeom.Tokens.default_])
     box = cache.ComputeWorldBound(table_prim).ComputeAlignedRange()
     low, high = np.array(box.GetMin()), np.array(box.GetMax())
-    corners = np.array([[x, y, z, 1.0] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+    corners = np.array([[x, y, z, 1.0] for x in (low[0], high[0]) for y in (low[1], high[1])
+                        for z in (low[2], high[2])])  # fmt: skip
     corners = (convert @ corners.T).T[:, :3]
     low, high = corners.min(axis=0), corners.max(axis=0)
     size = tuple(round(float(v), LENGTH_DECIMALS) for v in (high - low)[:2])
