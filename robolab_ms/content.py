@@ -28,10 +28,12 @@ CONTENT_PACKAGES = {
     "tasks": "robolab_ms.task_specs",
 }
 CONTENT_FOLDERS = {"assets": "assets", "scenes": "scene_builders", "tasks": "task_specs"}  # as in the checkout
-USER_KINDS = ("tasks", "scenes")  # what a user content folder may add (catalog objects and assets it may not)
+USER_KINDS = ("tasks", "scenes")  # what a user content folder may add, besides catalog objects (USER_CATALOG)
+USER_CATALOG = "assets/catalog.yaml"  # a user content folder's own catalog objects (`robolab catalog add` writes it)
 CONTENT_ENV = "ROBOLAB_CONTENT"  # user content folders, separated by os.pathsep
 CHECKOUT_FILE = "checkout.txt"  # written into the installed package by `make` (see setup.py): the checkout's path
 CHECKOUT_ENV = "ROBOLAB_MS_LINK_CHECKOUT"  # set to 1 while building, records the checkout in CHECKOUT_FILE
+CACHE_ENV = "ROBOLAB_MS_CACHE"  # the cache folder, when set
 
 _added_roots: list[Path] = []  # folders added with add_content_root (the CLI's --content)
 
@@ -57,15 +59,24 @@ def content_dir(kind: str) -> Path:
     return Path(str(resources.files(CONTENT_PACKAGES[kind])))
 
 
+def cache_dir() -> Path:
+    """Where derived files are kept between runs (coacd's pieces, ...): $ROBOLAB_MS_CACHE, else
+    $XDG_CACHE_HOME/robolab_ms, else ~/.cache/robolab_ms (as robolab_ms.agents.droid_model.cache_dir)."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "robolab_ms"
+
+
 def check_content_root(folder: str | Path, origin: str) -> Path:
-    """A user content folder, checked: it must exist and hold task_specs/ or scene_builders/."""
+    """A user content folder, checked: it must exist and hold task_specs/, scene_builders/ or assets/catalog.yaml."""
     path = Path(folder).expanduser()
     if not path.is_dir():
         raise RoboLabError(f"{origin}: '{folder}' is not a folder. Name a folder that holds task_specs/ and/or "
                            "scene_builders/")  # fmt: skip
-    if not any((path / CONTENT_FOLDERS[kind]).is_dir() for kind in USER_KINDS):
-        raise RoboLabError(f"{origin}: '{folder}' holds neither task_specs/ nor scene_builders/. Put task files in "
-                           f"{path / 'task_specs'} and scene files in {path / 'scene_builders'}")  # fmt: skip
+    if not any((path / CONTENT_FOLDERS[kind]).is_dir() for kind in USER_KINDS) and not (path / USER_CATALOG).is_file():
+        raise RoboLabError(f"{origin}: '{folder}' holds neither task_specs/ nor scene_builders/ nor {USER_CATALOG}. "
+                           f"Put task files in {path / 'task_specs'}, scene files in {path / 'scene_builders'}, "
+                           "catalog objects with 'robolab catalog add'")  # fmt: skip
     return path.resolve()
 
 

@@ -35,7 +35,15 @@ from robolab_ms.catalog.procedural import (
     quat_multiply,
     quat_to_matrix,
 )
-from robolab_ms.content import Fields, check_kind, check_range, content_dir, load_yaml
+from robolab_ms.content import (
+    USER_CATALOG,
+    Fields,
+    check_kind,
+    check_range,
+    content_dir,
+    load_yaml,
+    user_content_roots,
+)
 from robolab_ms.errors import RoboLabError, SpecError, UnknownNameError, did_you_mean
 
 if TYPE_CHECKING:
@@ -79,7 +87,8 @@ class MeshTransform:
 @dataclass(frozen=True)
 class CatalogObject:
     """One catalog entry. Procedural objects carry primitive `parts`; mesh objects a visual mesh from an installed
-    package (`source`), a `transform` and a hull file of convex collision pieces (`collision_file`)."""
+    package (source kind `mesh`) or a file beside their catalog file (source kind `file`, what `robolab catalog add`
+    writes), a `transform` and a hull file of convex collision pieces (`collision_file`)."""
 
     name: str
     object_class: str
@@ -101,6 +110,7 @@ class CatalogObject:
     collision_method: str = "primitives"
     collision_file: Path | None = None
     palette: tuple[tuple[float, float, float, float], ...] = ()
+    folder: Path | None = None  # the catalog file's folder: where the paths of a `file` source start
 
     @property
     def is_procedural(self) -> bool:
@@ -170,9 +180,11 @@ class CatalogObject:
         return self.mass / self.volume
 
     def visual_files(self) -> list[Path]:
-        """The packaged visual mesh files of a mesh object (empty for procedural objects)."""
+        """The visual mesh files of a mesh object: packaged, or beside its catalog file (none for procedural objects)."""
         if self.is_procedural:
             return []
+        if self.source["kind"] == "file":
+            return [self.folder / path for path in self.source["paths"]]
         return [package_file(self.source["package"], path) for path in self.source["paths"]]
 
     def build(self, scene: ManiSkillScene | sapien.Scene, name: str, initial_pose: sapien.Pose) -> Actor:
@@ -273,6 +285,7 @@ COLLISION_METHODS = {
     "coacd": "convex decomposition of the visual mesh by coacd, run once by 'robolab catalog build'",
 }
 MESH_SOURCE_FIELDS = ["kind", "package", "paths", "textured", "collision_pieces"]
+FILE_SOURCE_FIELDS = ["kind", "paths", "textured", "origin"]  # a mesh file beside the catalog file
 
 
 def collision_dir(catalog_file: Path) -> Path:
@@ -319,7 +332,7 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     collision = fields.sub("collision", {})
     collision.only(["method", "file"])
     source = fields.sub("source")
-    kind = source.choice("kind", ["procedural", "mesh"])
+    kind = source.choice("kind", ["procedural", "mesh", "file"])
     parts: list[Part] = []
     transform = None
     collision_file = None
@@ -337,19 +350,29 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         method = collision.choice("method", ["primitives"], "primitives")
         source_record = {"kind": kind, "generator": generator, "params": params}
     else:
-        source.only(MESH_SOURCE_FIELDS)
+        source.only(MESH_SOURCE_FIELDS if kind == "mesh" else FILE_SOURCE_FIELDS)
         paths = source.get("paths", list)
         if not paths:
-            raise source.error("paths", "is empty", "List the mesh files inside the package")
+            raise source.error("paths", "is empty", "List the mesh files inside the package" if kind == "mesh" else
+                               "List the mesh files, relative to the catalog file's folder")  # fmt: skip
         for index, path in enumerate(paths):
             check_kind(path, str, lambda problem, fix, index=index: source.error(f"paths[{index}]", problem, fix))
             if path in paths[:index]:
                 raise source.error(f"paths[{index}]", f"'{path}' is listed twice", "List each mesh file once")
-        source_record = {
-            "kind": kind, "package": source.get("package", str), "paths": paths,
-            "textured": source.get("textured", bool, False), "collision_pieces": source.get("collision_pieces", str, ""),
-        }  # fmt: skip
-        method = collision.choice("method", [m for m in COLLISION_METHODS if m != "primitives"])
+            if kind == "file" and not (Path(fields.file).parent / path).is_file():
+                raise source.error(f"paths[{index}]", f"'{path}' is not a file beside the catalog file",
+                                   f"Put the mesh at {Path(fields.file).parent / path}, or correct the path")  # fmt: skip
+        if kind == "file":
+            source_record = {"kind": kind, "paths": paths, "textured": source.get("textured", bool, False),
+                             "origin": source.get("origin", str, "")}  # fmt: skip
+        else:
+            source_record = {
+                "kind": kind, "package": source.get("package", str), "paths": paths,
+                "textured": source.get("textured", bool, False),
+                "collision_pieces": source.get("collision_pieces", str, ""),
+            }  # fmt: skip
+        methods = [m for m in COLLISION_METHODS if m != "primitives" and (kind == "mesh" or m != "packaged_pieces")]
+        method = collision.choice("method", methods)
         if method == "packaged_pieces" and not source_record["collision_pieces"]:
             raise source.error("collision_pieces", "is needed for collision method 'packaged_pieces'",
                                "Give a glob of the packaged convex pieces, relative to the first path's folder")  # fmt: skip
@@ -393,6 +416,7 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         collision_method=method,
         collision_file=collision_file,
         palette=palette,
+        folder=Path(fields.file).parent if kind == "file" else None,
     )
 
 
@@ -468,10 +492,53 @@ def read_catalog(file: Path) -> Catalog:
     return Catalog(objects, file)
 
 
-@lru_cache(maxsize=None)
+def user_catalog_files() -> list[Path]:
+    """The catalog files of the user content folders (ROBOLAB_CONTENT, --content): each folder's assets/catalog.yaml,
+    where `robolab catalog add` writes."""
+    files = [root / USER_CATALOG for root in user_content_roots()]
+    return [file for file in files if file.is_file()]
+
+
 def load_catalog(file: Path | None = None) -> Catalog:
-    """The shipped catalog (assets/catalog.yaml), or another catalog file."""
-    return read_catalog(file or content_dir("assets") / "catalog.yaml")
+    """One catalog file; without one, the shipped catalog (assets/catalog.yaml) joined by the objects of every user
+    catalog (`user_catalog_files`). Read once per process and file version (a file changed on disk is read again)."""
+    if file is not None:
+        return _read_catalog_version(Path(file), _file_version(Path(file)))
+    files = [content_dir("assets") / "catalog.yaml", *user_catalog_files()]
+    return _joined_catalogs(tuple((file, _file_version(file)) for file in files))
+
+
+def _file_version(file: Path) -> tuple[int, int]:
+    try:
+        status = file.stat()
+    except OSError:
+        return (0, 0)  # read_catalog reports the missing file
+    return (status.st_mtime_ns, status.st_size)
+
+
+@lru_cache(maxsize=None)
+def _read_catalog_version(file: Path, version: tuple[int, int]) -> Catalog:
+    return read_catalog(file)
+
+
+@lru_cache(maxsize=None)
+def _joined_catalogs(files: tuple[tuple[Path, tuple[int, int]], ...]) -> Catalog:
+    """The catalogs of `files` as one (the first file's is the catalog's file); a name in two files is an error."""
+    catalogs = [_read_catalog_version(file, version) for file, version in files]
+    if len(catalogs) == 1:
+        return catalogs[0]
+    objects: dict[str, CatalogObject] = {}
+    found_in: dict[str, Path] = {}
+    for catalog in catalogs:
+        for name, entry in catalog.objects.items():
+            if name in objects:
+                raise RoboLabError(
+                    f"catalog object '{name}' is defined twice: in {found_in[name]} and in {catalog.file}. Names "
+                    "must be unique across the shipped catalog and the user catalogs (assets/catalog.yaml of each "
+                    "folder of ROBOLAB_CONTENT / --content); rename one of them"
+                )
+            objects[name], found_in[name] = entry, catalog.file
+    return Catalog(objects, catalogs[0].file)
 
 
 DROID_GRIPPER_OPENING = 0.085  # m between the finger pads of DROID's open Robotiq 2F-85 (the model's: 86 mm)
