@@ -1,12 +1,14 @@
 """`robolab catalog build`: derive what the catalog needs from the installed asset packages, once.
 
-For every mesh object it reads the packaged visual mesh, applies the entry's scale and rotation, and writes
+For every mesh object (a packaged mesh, or a mesh file beside a user catalog: source kind `file`) it reads the
+visual mesh, applies the entry's scale and rotation, and writes
   - `transform.translation` (puts the centre of the bottom at the origin) and `dimensions` into the catalog file;
   - the hull file `assets/collision/<name>.obj`: the object's convex collision pieces in the object frame, made
     from the packaged pieces, the mesh's convex hull, or a coacd convex decomposition (the slow one, seconds to
     minutes per mesh; run here and committed, never at environment reset).
-Each hull file starts with a fingerprint of its inputs; a second run skips objects whose inputs did not change,
-so the command is idempotent and cheap to repeat.
+Each hull file starts with a fingerprint of its inputs (for a `file` source, the mesh files' contents too); a second
+run skips objects whose inputs did not change, so the command is idempotent and cheap to repeat. coacd's pieces are
+also kept in the cache folder under a hash of the mesh and the settings, so the same mesh is decomposed once.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 import glob
 import hashlib
 import json
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -23,9 +26,9 @@ import numpy as np
 import yaml
 
 from robolab_ms.catalog import COLLISION_METHODS, MeshTransform, collision_dir, read_catalog
-from robolab_ms.catalog.meshes import load_mesh, package_file, read_hulls, write_hulls
+from robolab_ms.catalog.meshes import load_mesh, package_file, read_hulls, repaired_surface, write_hulls
 from robolab_ms.catalog.procedural import generate, procedural_interior
-from robolab_ms.content import load_yaml
+from robolab_ms.content import cache_dir, load_yaml
 
 MAX_HULL_VERTICES = 64  # per convex piece; PhysX allows 255, fewer keeps the hull files small
 COACD_PARAMS = {"threshold": 0.05, "max_convex_hull": 24, "preprocess_resolution": 40, "seed": 0}
@@ -54,13 +57,34 @@ class BuildReport:
     catalog_changed: bool = False
 
 
-def _fingerprint(name: str, entry: dict) -> str:
+def mesh_files(entry: dict, folder: Path | None = None) -> list[Path]:
+    """The visual mesh files of a mesh entry: inside its installed package (source kind `mesh`), or for source kind
+    `file` relative to `folder`, the catalog file's folder."""
+    source = entry["source"]
+    if source["kind"] == "file":
+        if folder is None:
+            raise ValueError("a `file` source needs the catalog file's folder")
+        return [folder / path for path in source["paths"]]
+    return [package_file(source["package"], path) for path in source["paths"]]
+
+
+def file_digest(paths: list[Path]) -> str:
+    """A short hash of the contents of files (the mesh files of a `file` source)."""
+    digest = hashlib.sha256()
+    for path in paths:
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _fingerprint(name: str, entry: dict, folder: Path | None = None) -> str:
     source, transform = entry["source"], entry.get("transform", {})
     key = {
         "name": name, "source": source, "scale": transform.get("scale", 1.0),
         "rotation_deg": transform.get("rotation_deg", [0, 0, 0]), "collision": entry["collision"]["method"],
         "coacd": COACD_PARAMS if entry["collision"]["method"] == "coacd" else None, "max_vertices": MAX_HULL_VERTICES,
     }  # fmt: skip
+    if source["kind"] == "file":  # a user's file may change under the same name
+        key["mesh_digest"] = file_digest(mesh_files(entry, folder))
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -107,17 +131,45 @@ def _packaged_pieces(entry: dict, transform: MeshTransform) -> list[np.ndarray]:
     return [transform.apply(piece, translate=False) for piece in pieces]
 
 
-def _coacd_pieces(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
+def coacd_cache_file(vertices: np.ndarray, faces: np.ndarray) -> Path:
+    """Where coacd's pieces of this mesh (vertices in the object's orientation and scale) are kept: the cache folder,
+    under a hash of the vertices, the triangles, coacd's settings and its version."""
+    import coacd
+
+    digest = hashlib.sha256()
+    digest.update(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
+    digest.update(np.ascontiguousarray(faces, dtype=np.int64).tobytes())
+    digest.update(json.dumps([COACD_PARAMS, getattr(coacd, "__version__", "")], sort_keys=True).encode())
+    return cache_dir() / "coacd" / f"{digest.hexdigest()[:32]}.npz"
+
+
+def coacd_pieces(vertices: np.ndarray, faces: np.ndarray) -> tuple[list[np.ndarray], bool]:
+    """coacd's convex pieces (vertex arrays) of a mesh, and whether they came from the cache (coacd_cache_file)."""
+    cached = coacd_cache_file(vertices, faces)
+    if cached.is_file():
+        try:
+            with np.load(cached) as stored:
+                return [stored[f"piece{index}"] for index in range(len(stored.files))], True
+        except (OSError, ValueError, KeyError):
+            pass  # a damaged cache file: decompose again and replace it
     import coacd
 
     coacd.set_log_level("error")
     parts = coacd.run_coacd(coacd.Mesh(vertices, faces), **COACD_PARAMS)
-    return [np.asarray(part_vertices) for part_vertices, _ in parts]
+    pieces = [np.asarray(part_vertices, dtype=np.float64) for part_vertices, _ in parts]
+    cached.parent.mkdir(parents=True, exist_ok=True)
+    partial = cached.with_suffix(f".{os.getpid()}.partial.npz")
+    np.savez_compressed(partial, **{f"piece{index}": piece for index, piece in enumerate(pieces)})
+    os.replace(partial, cached)
+    return pieces, False
 
 
-def build_object(name: str, entry: dict, out_dir: Path, force: bool = False) -> bool:
-    """Fill in one mesh entry's translation and dimensions and write its hull file; False when already current."""
-    fingerprint = _fingerprint(name, entry)
+def build_object(name: str, entry: dict, out_dir: Path, force: bool = False, folder: Path | None = None,
+                 notes: dict | None = None) -> bool:  # fmt: skip
+    """Fill in one mesh entry's translation and dimensions and write its hull file; False when already current.
+    `folder` is the catalog file's folder, where the paths of a `file` source start; `notes`, when given, receives
+    `coacd_cached` (whether coacd's pieces came from the cache) for the coacd method."""
+    fingerprint = _fingerprint(name, entry, folder)
     hull_path = out_dir / entry["collision"].get("file", f"{name}.obj")
     if not force and _stored_fingerprint(hull_path) == fingerprint and "dimensions" in entry:
         return False
@@ -127,7 +179,7 @@ def build_object(name: str, entry: dict, out_dir: Path, force: bool = False) -> 
         scale=(float(scale),) * 3 if isinstance(scale, (int, float)) else tuple(float(s) for s in scale),
         rotation_deg=tuple(float(a) for a in spec.get("rotation_deg", [0, 0, 0])),
     )
-    meshes = [load_mesh(str(package_file(entry["source"]["package"], path))) for path in entry["source"]["paths"]]
+    meshes = [load_mesh(str(path)) for path in mesh_files(entry, folder)]
     vertices = np.concatenate([transform.apply(np.asarray(mesh.vertices), translate=False) for mesh in meshes])
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     translation = np.array([-(low[0] + high[0]) / 2, -(low[1] + high[1]) / 2, -low[2]])
@@ -139,7 +191,10 @@ def build_object(name: str, entry: dict, out_dir: Path, force: bool = False) -> 
     elif method == "coacd":
         offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes[:-1]])
         faces = np.concatenate([np.asarray(mesh.faces) + offset for mesh, offset in zip(meshes, offsets)])
-        pieces = _coacd_pieces(vertices, faces)
+        surface, _ = repaired_surface(vertices, faces)  # one closed surface where trimesh can make it one
+        pieces, cached = coacd_pieces(np.asarray(surface.vertices), np.asarray(surface.faces))
+        if notes is not None:
+            notes["coacd_cached"] = cached
     else:
         raise ValueError(f"{name}: collision method {method!r} is not one of {', '.join(COLLISION_METHODS)}")
     hulls = [_small_hull(piece + translation) for piece in pieces if len(piece) >= 4]
@@ -165,9 +220,9 @@ def _describe_procedural(entry: dict) -> None:
             entry["interior"] = [round(float(d), 4) for d in interior]
 
 
-def dump_catalog(data: dict) -> str:
+def dump_catalog(data: dict, header: str = HEADER) -> str:
     """The catalog as YAML text: a header, then one block per object with short lists and mappings inline."""
-    lines = [HEADER.rstrip(), f"version: {data.get('version', 1)}", "objects:"]
+    lines = [header.rstrip(), f"version: {data.get('version', 1)}", "objects:"]
     for name, entry in data["objects"].items():
         lines.append(f"  {name}:")
         ordered = sorted(entry, key=lambda key: KEY_ORDER.index(key) if key in KEY_ORDER else len(KEY_ORDER))
@@ -190,28 +245,40 @@ def build_catalog(
     force: bool = False,
     progress: Callable[[str], None] = print,
 ) -> BuildReport:
-    """Build every mesh object of a catalog file (or only `names`), then check and rewrite the file."""
+    """Build every mesh object of a catalog file (or only `names`), then check and rewrite the file (keeping the
+    comment lines it starts with)."""
     data = load_yaml(catalog_file)
     objects = data["objects"]
     out_dir = collision_dir(catalog_file)
     report = BuildReport()
-    before = dump_catalog(data)
+    header = file_header(catalog_file) or HEADER
+    before = dump_catalog(data, header)
     for name, entry in objects.items():
         if entry.get("source", {}).get("kind") == "procedural":
             _describe_procedural(entry)
-    mesh_names = [name for name, entry in objects.items() if entry.get("source", {}).get("kind") == "mesh"]
+    mesh_names = [name for name, entry in objects.items() if entry.get("source", {}).get("kind") in ("mesh", "file")]
     selected = [name for name in mesh_names if names is None or name in names]
     for index, name in enumerate(selected, 1):
         start = time.perf_counter()
-        changed = build_object(name, objects[name], out_dir, force)
+        changed = build_object(name, objects[name], out_dir, force, folder=catalog_file.parent)
         seconds = time.perf_counter() - start
         (report.built if changed else report.skipped).append(name)
         report.seconds[name] = seconds
         state = f"built in {seconds:.1f} s" if changed else "up to date"
         progress(f"[{index}/{len(selected)}] {name}: {state}")
-    after = dump_catalog(data)
+    after = dump_catalog(data, header)
     if after != before or catalog_file.read_text(encoding="utf-8") != after:
         catalog_file.write_text(after, encoding="utf-8")
         report.catalog_changed = True
     read_catalog(catalog_file)  # the result must pass the schema
     return report
+
+
+def file_header(file: Path) -> str:
+    """The comment lines a catalog file starts with ('' when none)."""
+    lines = []
+    for line in file.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("#"):
+            break
+        lines.append(line)
+    return "\n".join(lines) + "\n" if lines else ""

@@ -80,6 +80,30 @@ def write_hulls(path: Path, hulls: list) -> None:
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+def repaired_surface(vertices: np.ndarray, faces: np.ndarray):
+    """A mesh as one surface, repaired by trimesh: vertices merged by position (seams of texture coordinates and
+    normals closed), degenerate and duplicate triangles dropped, small holes filled, winding made consistent and
+    outward. Returns the trimesh.Trimesh and the repairs made (sentences)."""
+    import trimesh
+
+    surface = trimesh.Trimesh(vertices, faces, process=True)
+    repairs = []
+    count = len(surface.faces)
+    surface.update_faces(surface.nondegenerate_faces())
+    surface.update_faces(surface.unique_faces())
+    surface.remove_unreferenced_vertices()
+    if len(surface.faces) < count:
+        repairs.append(f"dropped {count - len(surface.faces)} degenerate or duplicate triangles")
+    if not surface.is_watertight:
+        trimesh.repair.fill_holes(surface)
+        if surface.is_watertight:
+            repairs.append("filled holes")
+    if surface.is_watertight and not surface.is_winding_consistent:
+        repairs.append("made the triangle winding consistent")
+    trimesh.repair.fix_normals(surface)
+    return surface, repairs
+
+
 def hull_volume(vertices: np.ndarray) -> float:
     """Volume of the convex hull of a point set (m^3)."""
     from scipy.spatial import ConvexHull
