@@ -380,7 +380,7 @@ def _add_export_commands(commands) -> None:
 def _add_generate_commands(commands) -> None:
     from robolab_ms.generation import commands as generation
 
-    generate = commands.add_parser("generate", help="generate scenes (and tasks) with an LLM or offline, checked like "
+    generate = commands.add_parser("generate", help="generate scenes and tasks with an LLM or offline, checked like "
                                    "hand-written ones", description="Generated content is data: it passes the same "
                                    "checks as hand-written files. See docs/generation.md.")  # fmt: skip
     kinds = generate.add_subparsers(dest="generate_kind", required=True, metavar="KIND")
@@ -393,6 +393,17 @@ def _add_generate_commands(commands) -> None:
     )  # fmt: skip
     generation.add_scene_arguments(scene)
     scene.set_defaults(run=generation.run_scene)
+    task = kinds.add_parser(
+        "task", help="a task file from an instruction on a scene: schema, judge and `robolab validate`, feedback rounds",
+        description="The model (--llm openai or offline) proposes the success condition with our predicates, the "
+        "three instruction variants, attributes, subtasks and the episode length. Each answer must pass the task "
+        "loader, a judge (the condition matches the instruction: the LLM, or rules offline) and `robolab validate` "
+        "(stable at rest, not solved at reset, not by the random policy, solved by the oracle) over --seeds seeds; "
+        "failures go back to the model for at most --rounds rounds. Writes FILE.yaml only when all pass, and "
+        "FILE.transcript.json.",
+    )  # fmt: skip
+    generation.add_task_arguments(task)
+    task.set_defaults(run=generation.run_task)
 
 
 def _cmd_scene_export(args: argparse.Namespace) -> int:
@@ -464,11 +475,17 @@ def _cmd_catalog_build(args: argparse.Namespace) -> int:
     return 0
 
 
+def _catalog_of(args: argparse.Namespace):
+    """The catalog named by --catalog, else the shipped one joined by the user content folders' catalogs."""
+    from robolab_ms.catalog import load_catalog, read_catalog
+
+    return read_catalog(Path(args.catalog)) if args.catalog else load_catalog()
+
+
 def _cmd_catalog_check(args: argparse.Namespace) -> int:
-    from robolab_ms.catalog import read_catalog
     from robolab_ms.catalog.check import check_catalog
 
-    catalog = read_catalog(_catalog_file(args))
+    catalog = _catalog_of(args)
     for name in args.objects or []:
         catalog[name]  # unknown names fail here, with suggestions
     results = check_catalog(catalog, args.objects, render=not args.no_render)
@@ -478,10 +495,9 @@ def _cmd_catalog_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_catalog_sheet(args: argparse.Namespace) -> int:
-    from robolab_ms.catalog import read_catalog
     from robolab_ms.catalog.check import contact_sheet
 
-    out = contact_sheet(read_catalog(_catalog_file(args)), Path(args.out), args.objects, tile=args.tile)
+    out = contact_sheet(_catalog_of(args), Path(args.out), args.objects, tile=args.tile)
     print(f"contact sheet: {out}")
     return 0
 
@@ -491,13 +507,18 @@ GRASP_CLEARANCE = 0.005  # m: an object "fits" the open gripper with at least th
 
 def _cmd_catalog_list(args: argparse.Namespace) -> int:
     from robolab_ms.catalog import DROID_GRIPPER_OPENING as GRIPPER_OPENING
-    from robolab_ms.catalog import narrowest_width, read_catalog
+    from robolab_ms.catalog import narrowest_width
 
-    catalog = read_catalog(_catalog_file(args))
+    catalog = _catalog_of(args)
     rows = [("object", "class", "size x y z (cm)", "grasp (cm)", "fits", "colours", "mass (kg)", "source")]
     for name in catalog.names():
         entry = catalog[name]
-        kind = entry.source["generator"] if entry.is_procedural else entry.source["package"]
+        if entry.is_procedural:
+            kind = entry.source["generator"]
+        elif entry.source["kind"] == "file":  # added with `robolab catalog add`: the folder it lies in
+            kind = f"file in {entry.folder}"
+        else:
+            kind = entry.source["package"]
         size = " x ".join(f"{d * 100:.1f}" for d in (entry.recorded_dimensions or entry.dimensions))
         width = narrowest_width(entry)
         fits = "yes" if width <= GRIPPER_OPENING - 2 * GRASP_CLEARANCE else "tight" if width < GRIPPER_OPENING else "no"
@@ -513,9 +534,72 @@ def _cmd_catalog_list(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_catalog_add(args: argparse.Namespace) -> int:
+    from robolab_ms.catalog.add import add_object, describe
+
+    result = add_object(
+        args.mesh, args.name, args.object_class, content=args.target, mass=args.mass, scale=args.scale, up=args.up,
+        description=args.description, colors=args.colors, friction=tuple(args.friction), origin=args.origin,
+        license=args.license, allow_open=args.allow_open, replace=args.replace, sheet=not args.no_sheet,
+    )  # fmt: skip
+    print(describe(result))
+    return 0
+
+
+def _add_catalog_add_command(actions) -> None:
+    from robolab_ms.catalog import COLOR_NAMES, OBJECT_CLASSES
+    from robolab_ms.catalog.add import CLASS_DENSITY, DEFAULT_CONTENT, DEFAULT_FRICTION, MAX_SIZE, MIN_SIZE
+    from robolab_ms.catalog.add import UP_ROTATIONS
+    from robolab_ms.content import CONTENT_ENV, USER_CATALOG
+
+    add = actions.add_parser(
+        "add", help="add a mesh file of your own (OBJ, GLB, STL) to a content folder's catalog",
+        description="Measure a mesh file, check it (it must hold triangles, have a thickness, be "
+        f"{MIN_SIZE * 1000:g} mm to {MAX_SIZE:g} m across and, after trimesh's repairs, be a closed surface), copy it "
+        f"into DIR/assets/meshes/NAME/, write its entry into DIR/{USER_CATALOG} with source.origin and license "
+        "marked TO FILL IN, make its collision by coacd convex decomposition into DIR/assets/collision/NAME.obj "
+        "(coacd's pieces are cached by the mesh's content), check it in SAPIEN as `robolab catalog check` does "
+        "(nothing is kept when it fails) and render the folder's objects into DIR/assets/contact_sheet.png. DIR is "
+        f"--content DIR, else the first folder of ${CONTENT_ENV}, else ./{DEFAULT_CONTENT}. Scenes then name the "
+        f"object as `asset: NAME` when DIR is in ${CONTENT_ENV} or given with --content. See docs/catalog.md.",
+    )  # fmt: skip
+    add.add_argument("mesh", metavar="MESH", help="the mesh file: .obj (with its .mtl and textures), .glb or .stl")
+    add.add_argument("--name", required=True, help="the catalog name: letters, digits and underscores, e.g. red_vase")
+    add.add_argument("--class", dest="object_class", required=True, metavar="CLASS",
+                     help=f"one of {', '.join(OBJECT_CLASSES)}")  # fmt: skip
+    add.add_argument("--content", dest="target", metavar="DIR",
+                     help=f"the content folder to write to (created when missing; default: the first folder of "
+                     f"${CONTENT_ENV}, else ./{DEFAULT_CONTENT})")  # fmt: skip
+    add.add_argument("--mass", type=float, metavar="KG",
+                     help="mass in kg (default: the class's density, the median of the shipped objects of that class "
+                     f"({min(CLASS_DENSITY.values()):g} to {max(CLASS_DENSITY.values()):g} kg/m^3), times the volume "
+                     "of the collision pieces)")  # fmt: skip
+    add.add_argument("--scale", type=float, default=1.0,
+                     help="metres per unit of the file (default 1; millimetres: 0.001, centimetres: 0.01, inches: "
+                     "0.0254)")  # fmt: skip
+    add.add_argument("--up", choices=list(UP_ROTATIONS),
+                     help="the file's axis that points up (default: y for .glb, as glTF specifies; z otherwise)")
+    add.add_argument("--description", help="one sentence (default: 'A NAME (added from FILE).')")
+    add.add_argument("--colors", nargs="+", metavar="COLOUR",
+                     help="colour names, the first for untextured meshes (default: the nearest to the mesh's own "
+                     f"colour, else grey); one of {', '.join(COLOR_NAMES)}")  # fmt: skip
+    add.add_argument("--friction", nargs=2, type=float, default=list(DEFAULT_FRICTION), metavar=("STATIC", "DYNAMIC"),
+                     help=f"friction coefficients (default {DEFAULT_FRICTION[0]:g} {DEFAULT_FRICTION[1]:g})")  # fmt: skip
+    add.add_argument("--origin", help="where the mesh comes from (web address, author); default: marked TO FILL IN")
+    add.add_argument("--license", help="the mesh's licence, e.g. CC-BY-4.0; default: marked TO FILL IN")
+    add.add_argument("--allow-open", action="store_true",
+                     help="accept a surface that is not closed (coacd's preprocessing closes it for the collision)")
+    add.add_argument("--replace", action="store_true", help="replace an object of that name in DIR's catalog")
+    add.add_argument("--no-sheet", action="store_true", help="do not render the contact sheet")
+    add.set_defaults(run=_cmd_catalog_add)
+
+
 def _add_catalog_commands(commands) -> None:
-    catalog = commands.add_parser("catalog", help="build, check, list and picture the object catalog",
-                                  description="The object catalog (assets/catalog.yaml) and its derived files.")  # fmt: skip
+    from robolab_ms.content import CONTENT_ENV
+
+    catalog = commands.add_parser("catalog", help="build, check, list and picture the object catalog; add meshes",
+                                  description="The object catalog (assets/catalog.yaml, joined by the catalogs of the "
+                                  "user content folders) and its derived files.")  # fmt: skip
     actions = catalog.add_subparsers(dest="catalog_command", required=True, metavar="ACTION")
     build = actions.add_parser("build", help="derive transforms, dimensions and collision hulls from the installed "
                                "asset packages (idempotent; coacd runs only for changed objects)")  # fmt: skip
@@ -532,10 +616,16 @@ def _add_catalog_commands(commands) -> None:
     listing = actions.add_parser("list", help="list the objects with class, size, graspable width, colours, mass "
                                  "and source")  # fmt: skip
     listing.set_defaults(run=_cmd_catalog_list)
-    for action in (build, check, sheet, listing):
-        action.add_argument("--catalog", help="catalog file (default: the shipped assets/catalog.yaml)")
+    build.add_argument("--catalog", help="catalog file (default: the shipped assets/catalog.yaml)")
+    for action in (check, sheet, listing):
+        action.add_argument("--catalog", help="one catalog file (default: the shipped assets/catalog.yaml and the "
+                            "assets/catalog.yaml of each content folder)")  # fmt: skip
+        action.add_argument("--content", action="append", default=[], metavar="DIR",
+                            help=f"a content folder whose catalog objects (DIR/assets/catalog.yaml) join the shipped "
+                            f"ones, after those of ${CONTENT_ENV}; may be given more than once")  # fmt: skip
     for action in (build, check, sheet):
         action.add_argument("--objects", nargs="+", metavar="NAME", help="only these objects (default: all)")
+    _add_catalog_add_command(actions)
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
