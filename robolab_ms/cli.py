@@ -380,7 +380,7 @@ def _add_export_commands(commands) -> None:
 def _add_generate_commands(commands) -> None:
     from robolab_ms.generation import commands as generation
 
-    generate = commands.add_parser("generate", help="generate scenes (and tasks) with an LLM or offline, checked like "
+    generate = commands.add_parser("generate", help="generate scenes and tasks with an LLM or offline, checked like "
                                    "hand-written ones", description="Generated content is data: it passes the same "
                                    "checks as hand-written files. See docs/generation.md.")  # fmt: skip
     kinds = generate.add_subparsers(dest="generate_kind", required=True, metavar="KIND")
@@ -393,6 +393,17 @@ def _add_generate_commands(commands) -> None:
     )  # fmt: skip
     generation.add_scene_arguments(scene)
     scene.set_defaults(run=generation.run_scene)
+    task = kinds.add_parser(
+        "task", help="a task file from an instruction on a scene: schema, judge and `robolab validate`, feedback rounds",
+        description="The model (--llm openai or offline) proposes the success condition with our predicates, the "
+        "three instruction variants, attributes, subtasks and the episode length. Each answer must pass the task "
+        "loader, a judge (the condition matches the instruction: the LLM, or rules offline) and `robolab validate` "
+        "(stable at rest, not solved at reset, not by the random policy, solved by the oracle) over --seeds seeds; "
+        "failures go back to the model for at most --rounds rounds. Writes FILE.yaml only when all pass, and "
+        "FILE.transcript.json.",
+    )  # fmt: skip
+    generation.add_task_arguments(task)
+    task.set_defaults(run=generation.run_task)
 
 
 def _cmd_scene_export(args: argparse.Namespace) -> int:

@@ -116,6 +116,12 @@ PLACE_REACH_TRIES = 12  # free spots tried for reach where the middle is out of 
 PLACE_REACH_MARGIN = 0.04  # ... and the one chosen this much nearer the robot than the farthest reached, if free
 
 
+# The predicates jobs_for turns into jobs (of a task's first success condition).
+SOLVABLE_PREDICATES = ("in_container", "enclosed", "on_top", "on_center", "placed_in_container_in_order",
+                       "groups_in_containers", "stacked", "picked_up", *DIRECTIONS, "next_to", "upright", "outside_of",
+                       "outside_of_and_on_surface")  # fmt: skip
+
+
 def jobs_for(env: RoboLabEnv) -> list[Job]:
     """The pick-and-place jobs that satisfy the task's first success condition."""
     condition = env.task_spec.success[0]
