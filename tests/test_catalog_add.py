@@ -94,7 +94,7 @@ def test_a_torus_keeps_its_hole_and_coacd_runs_once_per_mesh(tmp_path, capsys):
     assert len(again.hulls) == len(entry.hulls)
 
 
-def test_a_glb_stands_up_from_gltf_y_up_and_keeps_its_texture(tmp_path, capsys):
+def test_a_glb_stands_up_from_gltf_y_up_and_meshes_keep_their_textures(tmp_path, capsys):
     tall = trimesh.creation.box([0.05, 0.12, 0.03])  # long along y, as a glTF file stores an upright object
     tall.unmerge_vertices()
     uv = (tall.vertices[:, :2] - tall.vertices[:, :2].min(0)) / np.ptp(tall.vertices[:, :2], axis=0)
@@ -114,6 +114,16 @@ def test_a_glb_stands_up_from_gltf_y_up_and_keeps_its_texture(tmp_path, capsys):
     assert code == 0, err
     lying = read_catalog(content / "assets" / "catalog.yaml")["tower_lying"]
     assert np.allclose(lying.recorded_dimensions, [0.05, 0.12, 0.03], atol=1e-4)
+
+    obj = write_mesh(tmp_path / "obj" / "tower.obj", tall)  # with material.mtl and its texture beside it
+    code, _, err = add(capsys, str(obj), "--name", "tower_obj", "--class", "toy", "--up", "y", "--content",
+                       str(content), "--no-sheet")  # fmt: skip
+    assert code == 0, err
+    copied = read_catalog(content / "assets" / "catalog.yaml")["tower_obj"]
+    assert copied.source["textured"] is True
+    assert sorted(path.name for path in copied.visual_files()[0].parent.iterdir()) == sorted(
+        path.name for path in obj.parent.iterdir())  # the material library and its texture came along
+    assert np.allclose(copied.recorded_dimensions, [0.05, 0.03, 0.12], atol=1e-4)
 
 
 def two_boxes_sharing_an_edge() -> trimesh.Trimesh:

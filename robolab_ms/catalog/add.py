@@ -448,6 +448,9 @@ def _check_fix(problems: list[str]) -> str:
         return "Check which way is up (--up x, y, z, -x, -y or -z) so that it stands on its base"
     if "density" in text:
         return "Give --mass in kg"
+    if "SAPIEN mass" in text:
+        return ("PhysX cooked the convex pieces with another volume, as it does for very thin pieces: close the "
+                "surface or give its walls a thickness, and export it again")
     return "Look at the mesh in a mesh tool; the problems above say what SAPIEN measured"
 
 
@@ -468,6 +471,7 @@ def describe(result: AddResult) -> str:
     ]
     if result.sheet is not None:
         lines.append(f"  contact sheet: {result.sheet}")
+    lines.append("  seconds: " + ", ".join(f"{step} {value:.1f}" for step, value in result.seconds.items()))
     if result.to_fill:
         lines.append(f"  fill in {' and '.join(result.to_fill)} (marked '{TO_FILL}') in {result.catalog_file}")
     root = result.catalog_file.parents[1]
