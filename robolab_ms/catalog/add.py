@@ -164,6 +164,9 @@ def survey_mesh(path: str | Path, scale: float = 1.0, up: str | None = None, all
     else:
         survey.repairs.append(f"left open (--allow-open): {_edge_report(geometry)}")
     survey.textured, survey.colour = _appearance(loaded, path)
+    if suffix == ".glb" and not survey.textured:  # parts with their own textures are merged without them
+        parts = trimesh.load(str(path))
+        survey.textured = any(_image_of(part.visual) is not None for part in getattr(parts, "geometry", {}).values())
     if suffix == ".obj":
         survey.companions = obj_companions(path)
         survey.textured = any(companion.suffix.lower() != ".mtl" for companion in survey.companions)
@@ -214,8 +217,7 @@ def _appearance(loaded, path: Path) -> tuple[bool, str | None]:
     rgba = None
     if getattr(visual, "kind", None) == "texture":
         material = getattr(visual, "material", None)
-        image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
-        textured = image is not None and path.suffix.lower() == ".glb"  # an OBJ's textures are its companions
+        textured = _image_of(visual) is not None and path.suffix.lower() == ".glb"  # an OBJ's: its companions
         try:
             rgba = np.asarray(material.main_color, dtype=float)
         except (AttributeError, ValueError, TypeError):
@@ -226,6 +228,13 @@ def _appearance(loaded, path: Path) -> tuple[bool, str | None]:
         return textured, None
     rgb = rgba[:3] / 255.0
     return textured, min(COLOR_NAMES, key=lambda name: float(np.sum((np.asarray(COLOR_NAMES[name]) - rgb) ** 2)))
+
+
+def _image_of(visual):
+    """The image texture of a trimesh visual, or None."""
+    material = getattr(visual, "material", None)
+    image = getattr(material, "baseColorTexture", None)
+    return image if image is not None else getattr(material, "image", None)
 
 
 def obj_companions(path: Path) -> list[Path]:
