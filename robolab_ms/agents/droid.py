@@ -28,10 +28,14 @@ from robolab_ms.agents import droid_model as model
 DROID_HOME_ARM = (0.0, -np.pi / 5, 0.0, -4 * np.pi / 5, 0.0, 3 * np.pi / 5, 0.0)
 ARM_STIFFNESS = 400.0
 ARM_DAMPING = 80.0
-# The gripper: a stiff position drive whose torque is capped, so the pads squeeze with a bounded force.
+# The gripper: a stiff position drive whose torque and speed are capped, so the pads close at a Robotiq-like speed and
+# squeeze with a bounded force. Each pad sits 4.3 cm (horizontally) from its outer knuckle's axis, so 2 Nm presses a
+# pad with about 46 N (a 2F-85 grips with 20 to 235 N) and 1.5 rad/s closes the pads at about 13 cm/s (a 2F-85: 2 to
+# 15 cm/s). Without the speed cap the pads strike the object and squeeze round ones out (issue 15, docs/validation.md).
 GRIPPER_STIFFNESS = 1e5
 GRIPPER_DAMPING = 2e3
-GRIPPER_FORCE_LIMIT = 0.1  # Nm at each outer knuckle
+GRIPPER_FORCE_LIMIT = 2.0  # Nm at each outer knuckle
+GRIPPER_MAX_VELOCITY = 1.5  # rad/s at each outer knuckle
 # Static and dynamic friction of the finger pads. PhysX averages the two materials of a contact, so on our objects
 # (0.8 static, 0.6 dynamic) a pad grips with 2.1 / 2.0: RoboLab's pad-object friction (its objects and pads are 2.0).
 PAD_FRICTION = 3.4
@@ -74,6 +78,9 @@ class DroidPandaRobotiq(BaseAgent):
         for index, name in enumerate(model.ARM_JOINTS):
             for joint in self.robot.joints_map[name]._objs:
                 joint.set_max_velocity(model.ARM_VELOCITY[index])
+        for name in model.DRIVEN_GRIPPER_JOINTS:
+            for joint in self.robot.joints_map[name]._objs:
+                joint.set_max_velocity(GRIPPER_MAX_VELOCITY)
         knuckle_anchor, finger_anchor = model.linkage_anchors()
         for side in ("left", "right"):
             knuckle = self.robot.active_joints_map[f"{side}_inner_knuckle_joint"].get_child_link()
