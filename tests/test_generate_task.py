@@ -202,3 +202,20 @@ def test_no_file_when_every_round_fails(tmp_path, catalog):
     with pytest.raises(RoboLabError, match="already exists"):
         generate_task(SCENE, "Put the banana in the bowl", tmp_path / "BananaInBowl.yaml",
                       OfflineTaskModel(catalog, load_scene(SCENE)), RulesJudge(catalog), seeds=0, catalog=catalog)  # fmt: skip
+
+
+def test_offline_feedback_answers_like_an_author():
+    """Knocked into place in some seeds -> require_picked_up; holding without the robot (solved at reset, random
+    policy in every seed) -> unchanged; the oracle out of time -> a longer episode; contact unmet -> flag dropped."""
+    from robolab_ms.generation.offline_task import apply_task_feedback
+
+    answer = {"episode_seconds": 40, "success": [dict(GOOD["success"][0])]}
+    knocked = apply_task_feedback(answer, "- robolab validate (3 seed(s)): random policy succeeds 33% (max 10%)")
+    assert knocked["success"][0]["require_picked_up"] is True and answer["success"][0].get("require_picked_up") is None
+    for already in ("random policy succeeds 100% (max 10%)", "solved at reset in 3 seed(s); random policy succeeds "
+                    "67% (max 10%)"):  # fmt: skip
+        assert apply_task_feedback(answer, already) == answer
+    slow = apply_task_feedback(answer, "why the oracle failed: seed 0: ran out of time (750 steps): banana placed")
+    assert slow["episode_seconds"] == 60
+    loose = apply_task_feedback(answer, "banana placed, but not touching bowl (require_contact_with) at the end")
+    assert "require_contact_with" not in loose["success"][0] and loose["success"][0]["require_gripper_detached"]

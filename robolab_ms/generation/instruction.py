@@ -19,7 +19,6 @@ from robolab_ms.catalog import Catalog, CatalogObject
 from robolab_ms.generation.offline import MODIFIERS, STOP, SYNONYMS, singular
 from robolab_ms.scene import SceneSpec
 
-TABLE = "table"
 NUMBER_WORDS = {"one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "both": 2}
 ALL_WORDS = {"all", "every", "each", "both"}
 ANY_WORDS = {"a", "an", "any", "either", "some"}
@@ -47,9 +46,8 @@ CATEGORIES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {  # word -> (c
                                                          "dressing", "condiment")),
     "animal": ((), ("elephant", "lizard", "animal", "dog", "cat", "horse", "duck", "giraffe")),
 }  # fmt: skip
-MORE_SYNONYMS = {"barbecue": "bbq", "cellphone": "smartphone", "telephone": "smartphone", "remote": "remote",
-                 "spectacles": "eyeglasses", "trashcan": "bin", "bucket": "pail", "tin": "can", "cube": "cube",
-                 "puzzle": "rubiks", "rubik": "rubiks", "pot": "pot", "mouse": "mouse", "ladle": "ladle"}  # fmt: skip
+MORE_SYNONYMS = {"barbecue": "bbq", "cellphone": "smartphone", "telephone": "smartphone", "spectacles": "eyeglasses",
+                 "trashcan": "bin", "bucket": "pail", "tin": "can", "puzzle": "rubiks", "rubik": "rubiks"}  # fmt: skip
 STATE_WORDS = {"upright", "sideways", "lying", "standing", "top", "middle", "bottom", "near", "far", "left", "right",
                "front", "back", "open", "closed", "empty", "full", "big", "small", "new", "old"}  # in scene names
 HEAD_NOUNS = {"plate", "bowl", "mug", "bin", "box", "can", "bottle", "block", "hammer", "pumpkin", "lime", "lemon",
@@ -97,6 +95,10 @@ class SceneObject:
     def volume(self) -> float:
         dims = self.entry.dimensions
         return float(dims[0] * dims[1] * dims[2])
+
+    def named(self, word: str) -> bool:
+        """Whether a word is part of its catalog or scene name ("red" of red_onion, whose colours are purple)."""
+        return word in re.split(r"[_\d]+", self.asset) or word in re.split(r"[_\d]+", self.name)
 
     def noun(self) -> str:
         """How an instruction names it: the words of its catalog name without colours and sizes, the head noun
@@ -444,8 +446,9 @@ def _narrow(mention: Mention, vocab: SceneVocabulary) -> None:
         named = [c for c in candidates if stem in c or stem in objects[c].asset]
         candidates = named or candidates
     for colour in mention.colours:
-        first = [c for c in candidates if objects[c].colours[:1] == (colour,)]
-        anywhere = [c for c in candidates if colour in objects[c].colours and len(objects[c].colours) < 4]
+        first = [c for c in candidates if objects[c].colours[:1] == (colour,) or objects[c].named(colour)]
+        anywhere = [c for c in candidates if colour in objects[c].colours and len(objects[c].colours) < 4
+                    or objects[c].named(colour)]  # fmt: skip
         candidates = first if mention.category and first else anywhere or first
     if mention.size and candidates:
         ordered = sorted(candidates, key=lambda c: objects[c].volume * mention.size, reverse=True)
