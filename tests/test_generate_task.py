@@ -219,3 +219,20 @@ def test_offline_feedback_answers_like_an_author():
     assert slow["episode_seconds"] == 60
     loose = apply_task_feedback(answer, "banana placed, but not touching bowl (require_contact_with) at the end")
     assert "require_contact_with" not in loose["success"][0] and loose["success"][0]["require_gripper_detached"]
+
+
+def test_scene_given_as_a_file_elsewhere(tmp_path, catalog):
+    """A scene file the task's folder cannot find by name is written as a path relative to the task file, and the
+    task loads from there (validation skipped: seeds=0)."""
+    scenes = tmp_path / "elsewhere"
+    scenes.mkdir()
+    scene_file = scenes / "my_banana_bowl.yaml"
+    scene_file.write_text(load_scene(SCENE).file.read_text().replace(f"name: {SCENE}", "name: my_banana_bowl"))
+    out = tmp_path / "tasks" / "MyBananaInBowl.yaml"
+    result = generate_task(str(scene_file), "put the banana in the red bowl", out,
+                           OfflineTaskModel(catalog, load_scene(SCENE)), RulesJudge(catalog), seeds=0, catalog=catalog)  # fmt: skip
+    assert result.accepted and result.judgement.verdict == ALIGNED
+    assert yaml.safe_load(out.read_text())["scene"] == "../elsewhere/my_banana_bowl.yaml"
+    spec = read_task(out)
+    assert spec.scene.name == "my_banana_bowl" and spec.success[0].references["container"] == "bowl"
+    assert "not validated (--seeds 0)" in out.read_text()
