@@ -150,9 +150,8 @@ class RulesJudge:
         mentions = list({id(m): m for a in actions for m in a.targets}.values())
         reference_names = {c for m in named_places for c in m.candidates[:1]}
         moved = [o for o in condition.objects if not (condition.predicate == "stacked" and o in reference_names)]
-        if main.kind == "clear":
-            host = places[0] if places else None
-            return problems + ([] if host in {c for m in named_places for c in m.candidates} else [])
+        if main.kind == "clear":  # "clear the plate": the place checked above; what rests on it is the scene's
+            return problems
         named = {c for m in mentions for c in m.candidates}
         for mention in mentions:
             if not set(mention.candidates) & set(moved):
@@ -166,7 +165,7 @@ class RulesJudge:
         if mentions and not problems:
             wanted = self._wanted(mentions, actions, vocabulary, out_of)
             needed = required_count(condition) - (1 if condition.predicate == "stacked" and reference_names else 0)
-            if wanted is not None and wanted != needed:
+            if wanted != needed:
                 problems.append(f"the instruction asks for {wanted} object(s), the condition needs {needed} "
                                 f"({condition.logical}{f' {condition.k}' if condition.logical == 'choose' else ''} "
                                 f"of {len(condition.objects)})")  # fmt: skip

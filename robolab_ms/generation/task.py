@@ -29,7 +29,7 @@ from typing import Any
 import yaml
 
 from robolab_ms.catalog import Catalog, load_catalog
-from robolab_ms.errors import RoboLabError, SpecError
+from robolab_ms.errors import RoboLabError
 from robolab_ms.generation.judge import ALIGNED, UNSURE, Judge, Judgement, ModelJudge, scene_listing
 from robolab_ms.generation.llm import GenerationError, JsonModel, Transcript
 from robolab_ms.generation.offline_task import INSTRUCTION_PREFIX, tidy
@@ -208,7 +208,7 @@ def task_data(answer: dict[str, Any], name: str, scene: str, instruction: str) -
     return data
 
 
-def _spec_feedback(error: SpecError, file: Path) -> str:
+def _spec_feedback(error: RoboLabError, file: Path) -> str:
     """The loader's error for the model: the field and the fix, without our temporary path."""
     return str(error).replace(f"{file}: ", "the task: ").replace(str(file), "the task")
 
@@ -258,7 +258,7 @@ def generate_task(scene: str | Path | SceneSpec, instruction: str, out: str | Pa
                         spec = read_task(candidate)
                         result.condition = data["success"][0] if isinstance(data.get("success"), list) else None
                         checks["schema"] = "ok"
-                    except SpecError as exc:
+                    except RoboLabError as exc:  # SpecError mostly; any refusal of the loader is feedback
                         feedback, result.stopped_at = [_spec_feedback(exc, candidate)], "schema"
                         checks["schema"] = feedback[0]
                 if spec is not None:
