@@ -52,6 +52,9 @@ WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is w
 FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
 GRASP_SHIFTS = (0.0, 0.015, -0.015, 0.03, -0.03, 0.045, -0.045, 0.06, -0.06)  # m along the part from its middle
+LONG_RATIO = 2.0  # a footprint this many times as long as wide is held near its centre of mass
+FOOTPRINT_CELL = 0.006  # m between the vertical rays that map the top of an object with few surface points ...
+FOOTPRINT_MAX_POINTS = 200  # ... as many as this at most (a primitive's corners, not a mesh)
 MIN_SLAB_POINTS = 12  # the fewest object points between the fingers that tell the width they close on
 FINGER_HALF_WIDTH = 0.015  # m: object points this near the fingers' plane are between them
 # The hand coming straight down to a top-down grasp, as boxes in its own frame: half extent along the hand's x,
@@ -112,6 +115,8 @@ PLACE_CELL = 0.01  # m between the rays that map a container's floor or a plate 
 PLACE_FLATNESS = 0.02  # m a place spot may rise above the lowest point of the container or plate
 OPEN_FINGER_REACH = 0.05  # m from the TCP to the outer face of an open finger, along the closing direction
 PLACE_MARGIN = 0.015  # m kept between an object set down in a container or on a plate and what is already there
+PLACE_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees the hand may turn to fit a place
+PLACE_MIDDLE = 0.04  # m: a long object too big for a floor has at least this much around its middle over it
 PLACE_REACH_TRIES = 12  # free spots tried for reach where the middle is out of reach ...
 PLACE_REACH_MARGIN = 0.04  # ... and the one chosen this much nearer the robot than the farthest reached, if free
 
@@ -509,12 +514,20 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     bottom = points[:, 2].min()  # of the whole object: what the fingertips must stay clear of is below it
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
     part_only = not _hits(env, name, centre[:2], points[:, 2].max())
+    if _long_object(points):  # held far from its heavy end a long object twists out of the pads: at its mass centre
+        mass_centre = _mass_centre(env, name)
+        seen = _footprint_points(env, name, points)
+        if _hits(env, name, mass_centre[:2], points[:, 2].max()) or _spans(points if seen is None else seen,
+                                                                            mass_centre):  # fmt: skip
+            centre, part_only = np.array([mass_centre[0], mass_centre[1], centre[2]]), False
     if part_only:  # the middle is empty: grasp the part of the object nearest to it
         nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
         points = points[np.linalg.norm(points[:, :2] - nearest[:2], axis=1) < PART_RADIUS]
         centre = np.array([nearest[0], nearest[1], (points[:, 2].max() + points[:, 2].min()) / 2])
+    footprint = None if part_only else _footprint_points(env, name, points)
     if closing is None:
-        xy = points[:, :2] - points[:, :2].mean(axis=0)
+        spread = points if footprint is None or len(footprint) < MIN_SLAB_POINTS else footprint
+        xy = spread[:, :2] - spread[:, :2].mean(axis=0)
         _, vectors = np.linalg.eigh(xy.T @ xy)
         narrowest = vectors[:, 0]  # the direction of least spread: the fingers close along it by preference
         directions = [_turned(narrowest, angle) for angle in GRASP_TURNS]
@@ -531,7 +544,9 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         for shift in shifts or [0.0]:
             xy = centre[:2] + along * shift
             slab = points[np.abs(points[:, :2] @ along - xy @ along) < FINGER_HALF_WIDTH]
-            if len(slab) < MIN_SLAB_POINTS:  # too few surface points there to measure (a box has only its corners)
+            if len(slab) < MIN_SLAB_POINTS and footprint is not None:  # a box has only its corners: the top seen
+                slab = footprint[np.abs(footprint[:, :2] @ along - xy @ along) < FINGER_HALF_WIDTH]  # from above
+            if len(slab) < MIN_SLAB_POINTS:  # too few surface points there to measure
                 slab = points
             z, width = _grasp_height(slab, direction, bottom)
             fingers, body = _hand_clash(heights, xy, direction, z)
@@ -549,6 +564,52 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         if wall is not None:
             return wall
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
+
+
+def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
+    """The object's centre of mass in the world (x, y, z), from the simulator's body."""
+    actor = env.objects[name]
+    body = actor._bodies[0]
+    return np.asarray((actor.pose.sp * body.cmass_local_pose).p, dtype=np.float64)
+
+
+def _long_object(points: np.ndarray) -> bool:
+    """Whether the object's footprint is long (a tool, a utensil): at least LONG_RATIO times as long as wide, and
+    longer than the open fingers' gap."""
+    xy = points[:, :2] - points[:, :2].mean(axis=0)
+    _, vectors = np.linalg.eigh(xy.T @ xy)
+    extents = np.ptp(xy @ vectors, axis=0)  # narrowest, then widest
+    return bool(extents[1] > OPEN_FINGER_GAP and extents[1] > LONG_RATIO * extents[0])
+
+
+def _spans(points: np.ndarray, at: np.ndarray) -> bool:
+    """Whether the open fingers, closing across the object's narrowest horizontal direction at `at`, go round
+    all of it there (a spring clamp's two handles)."""
+    xy = points[:, :2] - points[:, :2].mean(axis=0)
+    _, vectors = np.linalg.eigh(xy.T @ xy)
+    narrowest, along = vectors[:, 0], vectors[:, 1]
+    slab = points[np.abs((points[:, :2] - at[:2]) @ along) < 2 * FINGER_HALF_WIDTH]
+    return len(slab) >= 2 and float(np.ptp(slab[:, :2] @ narrowest)) < MAX_GRASP_WIDTH
+
+
+def _footprint_points(env: RoboLabEnv, name: str, points: np.ndarray) -> np.ndarray | None:
+    """The object seen from above: for every cell of a FOOTPRINT_CELL grid over its footprint where a vertical
+    ray meets it first, a point at its top there and one at its bottom (as if its sides were vertical); None off
+    the CPU simulator or where the object has enough surface points of its own (a mesh)."""
+    if env.scene.gpu_sim_enabled or len(points) > FOOTPRINT_MAX_POINTS:
+        return None
+    low, high = points[:, :2].min(axis=0), points[:, :2].max(axis=0)
+    bottom, top = float(points[:, 2].min()), float(points[:, 2].max())
+    xs = np.arange(low[0] + FOOTPRINT_CELL / 2, high[0], FOOTPRINT_CELL)
+    ys = np.arange(low[1] + FOOTPRINT_CELL / 2, high[1], FOOTPRINT_CELL)
+    found = []
+    for x in xs:
+        for y in ys:
+            z = _ray_hit(env, name, np.array([x, y, top + 0.01]), -1.0)
+            if z is not None:
+                found.append((x, y, z))
+                found.append((x, y, bottom))
+    return np.array(found) if found else None
 
 
 def _too_wide(points: np.ndarray, closing: np.ndarray, z: float) -> bool:
@@ -745,11 +806,7 @@ def free_place(
     target = _world_points(env, onto)
     low, high = target[:, :2].min(axis=0), target[:, :2].max(axis=0)
     middle = (low + high) / 2
-    held = _world_points(env, name)[:, :2] - grasp[:2]  # the held object relative to the TCP
-    body_low, body_high = held.min(axis=0), held.max(axis=0)
-    closing = quat_to_matrix(grasp[3:])[:2, 1]
-    fingers = np.abs(closing) * OPEN_FINGER_REACH + np.abs(closing[::-1]) * FINGER_HALF_WIDTH
-    foot_low, foot_high = np.minimum(body_low, -fingers), np.maximum(body_high, fingers)
+    held_points = _world_points(env, name)[:, :2] - grasp[:2]  # the held object relative to the TCP
     radius = float(np.max(high - middle)) + PLACE_CELL
     cells, heights, names = _surface_grid(env, name, middle, radius, PLACE_CELL)
     on_target = np.array([other == onto for other in names])
@@ -758,25 +815,45 @@ def free_place(
     level = heights[on_target].min()
     flat = on_target & (heights <= level + PLACE_FLATNESS)
     others = np.array([other is not None and other != onto for other in names])
-    centre_offset = (body_low + body_high) / 2
-    candidates = cells[flat] - centre_offset  # TCP positions putting the object's middle over a flat cell
-    order = np.argsort(np.linalg.norm(candidates + centre_offset - middle, axis=1), kind="stable")
     is_container = env.eval_context.entries[onto].is_container
     free = []  # release poses, middlemost first
-    # the object and the open fingers with room around; where nothing has that room, the object alone
-    for foot_low, foot_high, margin in ((foot_low, foot_high, PLACE_MARGIN), (body_low, body_high, 0.0)):
-        for tcp in candidates[order]:
-            local = cells - tcp
-            under = np.all((local >= foot_low) & (local <= foot_high), axis=1)
-            if not flat[under].all() and (is_container or on_target[under & ~flat].any()):
-                continue  # on a wall, a rim or the edge (a plate may have the table under the fingers)
-            near = np.all((local >= body_low - margin) & (local <= body_high + margin), axis=1)
-            if others[near].any():
-                continue
-            z = heights[under].max() + RELEASE_CLEARANCE + held_bottom
-            free.append(np.concatenate([[tcp[0], tcp[1], z], grasp[3:]]))
+    # the object and the open fingers with room around; where nothing has that room, the object alone; the hand
+    # turned about the vertical as little as needed (a long tool fits a bin only along it)
+    # last, for a long object that fits no floor (its middle is what counts as in): its middle over the floor and the
+    # rest over whatever is there (a rim), released above all of it
+    for with_fingers, whole in ((True, True), (False, True), (False, False)):
+        for turn in PLACE_TURNS:
+            spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
+            held = held_points @ spin[:2, :2].T
+            quaternion = _matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))
+            body_low, body_high = held.min(axis=0), held.max(axis=0)
+            if with_fingers:
+                closing = (spin @ quat_to_matrix(grasp[3:]))[:2, 1]
+                fingers = np.abs(closing) * OPEN_FINGER_REACH + np.abs(closing[::-1]) * FINGER_HALF_WIDTH
+                foot_low, foot_high = np.minimum(body_low, -fingers), np.maximum(body_high, fingers)
+                margin = PLACE_MARGIN
+            else:
+                foot_low, foot_high, margin = body_low, body_high, 0.0
+            centre_offset = (body_low + body_high) / 2
+            candidates = cells[flat] - centre_offset  # TCP positions putting the object's middle over a flat cell
+            order = np.argsort(np.linalg.norm(candidates + centre_offset - middle, axis=1), kind="stable")
+            for tcp in candidates[order]:
+                local = cells - tcp
+                under = np.all((local >= foot_low) & (local <= foot_high), axis=1)
+                middle_part = under if whole else np.all(np.abs(local - centre_offset) <= PLACE_MIDDLE, axis=1)
+                if not flat[middle_part].all() and (is_container or on_target[middle_part & ~flat].any()):
+                    continue  # on a wall, a rim or the edge (a plate may have the table under the fingers)
+                near = np.all((local >= body_low - margin) & (local <= body_high + margin), axis=1)
+                if others[near].any():
+                    continue
+                z = heights[under].max() + RELEASE_CLEARANCE + held_bottom
+                free.append(np.concatenate([[tcp[0], tcp[1], z], quaternion]))
+            if free and whole:
+                break
         if free:
             break
+    if free and not whole:  # the turn and spot that let it down lowest (most of it over the floor)
+        free.sort(key=lambda pose: round(float(pose[2]), 2))
     if not free:
         return None
 
