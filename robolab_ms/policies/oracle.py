@@ -52,6 +52,7 @@ WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is w
 FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
 GRASP_SHIFTS = (0.0, 0.015, -0.015, 0.03, -0.03, 0.045, -0.045, 0.06, -0.06)  # m along the part from its middle
+HEAVY_MASS = 0.8  # kg: an object this heavy is held near its centre of mass, like a long one
 LONG_RATIO = 2.0  # a footprint this many times as long as wide is held near its centre of mass
 FOOTPRINT_CELL = 0.006  # m between the vertical rays that map the top of an object with few surface points ...
 FOOTPRINT_MAX_POINTS = 200  # ... as many as this at most (a primitive's corners, not a mesh)
@@ -514,7 +515,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     bottom = points[:, 2].min()  # of the whole object: what the fingertips must stay clear of is below it
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
     part_only = not _hits(env, name, centre[:2], points[:, 2].max())
-    if _long_object(points):  # held far from its heavy end a long object twists out of the pads: at its mass centre
+    if _long_object(points) or _heavy(env, name):  # held far from its mass centre it twists out of the pads
         mass_centre = _mass_centre(env, name)
         seen = _footprint_points(env, name, points)
         if _hits(env, name, mass_centre[:2], points[:, 2].max()) or _spans(points if seen is None else seen,
@@ -571,6 +572,11 @@ def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
     actor = env.objects[name]
     body = actor._bodies[0]
     return np.asarray((actor.pose.sp * body.cmass_local_pose).p, dtype=np.float64)
+
+
+def _heavy(env: RoboLabEnv, name: str) -> bool:
+    """Whether the object weighs HEAVY_MASS or more (a drill): held off its mass centre, it turns in the pads."""
+    return float(env.objects[name]._bodies[0].mass) >= HEAVY_MASS
 
 
 def _long_object(points: np.ndarray) -> bool:
