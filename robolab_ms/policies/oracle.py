@@ -827,7 +827,8 @@ def free_place(
     # turned about the vertical as little as needed (a long tool fits a bin only along it)
     # last, for a long object that fits no floor (its middle is what counts as in): its middle over the floor and the
     # rest over whatever is there (a rim), released above all of it
-    for with_fingers, whole in ((True, True), (False, True), (False, False)):
+    passes = ((True, True), (False, True), (False, False)) if _long_object(held_points) else ((True, True), (False, True))
+    for with_fingers, whole in passes:
         for turn in PLACE_TURNS:
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
             held = held_points @ spin[:2, :2].T
