@@ -829,7 +829,7 @@ def free_place(
     # rest over whatever is there (a rim), released above all of it
     passes = ((True, True), (False, True), (False, False)) if _long_object(held_points) else ((True, True), (False, True))
     for with_fingers, whole in passes:
-        for turn in PLACE_TURNS:
+        for turn in PLACE_TURNS if _long_object(held_points) else PLACE_TURNS[:1]:  # only a long tool turns
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
             held = held_points @ spin[:2, :2].T
             quaternion = _matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))
