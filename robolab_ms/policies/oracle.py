@@ -53,6 +53,7 @@ FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handl
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
 GRASP_SHIFTS = (0.0, 0.015, -0.015, 0.03, -0.03, 0.045, -0.045, 0.06, -0.06)  # m along the part from its middle
 HEAVY_MASS = 0.8  # kg: an object this heavy is held near its centre of mass, like a long one
+LONG_TOOL_MASS = 0.1  # kg: a long object this heavy (a hammer, a clamp, a ladle) is a tool: turned to fit its place
 LONG_RATIO = 2.0  # a footprint this many times as long as wide is held near its centre of mass
 FOOTPRINT_CELL = 0.006  # m between the vertical rays that map the top of an object with few surface points ...
 FOOTPRINT_MAX_POINTS = 200  # ... as many as this at most (a primitive's corners, not a mesh)
@@ -594,7 +595,8 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     bottom = points[:, 2].min()  # of the whole object: what the fingertips must stay clear of is below it
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
     part_only = not _hits(env, name, centre[:2], points[:, 2].max())
-    if _long_object(points) or _heavy(env, name):  # held far from its mass centre it twists out of the pads
+    tool = _tool(env, name, points) or _heavy(env, name)
+    if tool:  # held far from its mass centre it twists out of the pads
         mass_centre = _mass_centre(env, name)
         seen = _footprint_points(env, name, points)
         if _hits(env, name, mass_centre[:2], points[:, 2].max()) or _spans(points if seen is None else seen,
@@ -604,7 +606,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
         points = points[np.linalg.norm(points[:, :2] - nearest[:2], axis=1) < PART_RADIUS]
         centre = np.array([nearest[0], nearest[1], (points[:, 2].max() + points[:, 2].min()) / 2])
-    footprint = None if part_only else _footprint_points(env, name, points)
+    footprint = _footprint_points(env, name, points) if tool and not part_only else None  # a tool's top, mapped
     if closing is None:
         spread = points if footprint is None or len(footprint) < MIN_SLAB_POINTS else footprint
         xy = spread[:, :2] - spread[:, :2].mean(axis=0)
@@ -656,6 +658,11 @@ def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
 def _heavy(env: RoboLabEnv, name: str) -> bool:
     """Whether the object weighs HEAVY_MASS or more (a drill): held off its mass centre, it turns in the pads."""
     return float(env.objects[name]._bodies[0].mass) >= HEAVY_MASS
+
+
+def _tool(env: RoboLabEnv, name: str, points: np.ndarray) -> bool:
+    """Whether the object is a long tool (a hammer, a clamp, a ladle): long and LONG_TOOL_MASS or heavier."""
+    return _long_object(points) and float(env.objects[name]._bodies[0].mass) >= LONG_TOOL_MASS
 
 
 def _long_object(points: np.ndarray) -> bool:
@@ -906,9 +913,10 @@ def free_place(
     # turned about the vertical as little as needed (a long tool fits a bin only along it)
     # last, for a long object that fits no floor (its middle is what counts as in): its middle over the floor and the
     # rest over whatever is there (a rim), released above all of it
-    passes = ((True, True), (False, True), (False, False)) if _long_object(held_points) else ((True, True), (False, True))
+    tool = _tool(env, name, held_points)
+    passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (False, True))
     for with_fingers, whole in passes:
-        for turn in PLACE_TURNS if _long_object(held_points) else PLACE_TURNS[:1]:  # only a long tool turns
+        for turn in PLACE_TURNS if tool else PLACE_TURNS[:1]:  # only a long tool turns (a spoon fits as held)
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
             held = held_points @ spin[:2, :2].T
             quaternion = _matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))
