@@ -52,6 +52,11 @@ WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is w
 FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
 GRASP_SHIFTS = (0.0, 0.015, -0.015, 0.03, -0.03, 0.045, -0.045, 0.06, -0.06)  # m along the part from its middle
+HEAVY_MASS = 0.8  # kg: an object this heavy is held near its centre of mass, like a long one
+LONG_TOOL_MASS = 0.1  # kg: a long object this heavy (a hammer, a clamp, a ladle) is a tool: turned to fit its place
+LONG_RATIO = 2.0  # a footprint this many times as long as wide is held near its centre of mass
+FOOTPRINT_CELL = 0.006  # m between the vertical rays that map the top of an object with few surface points ...
+FOOTPRINT_MAX_POINTS = 200  # ... as many as this at most (a primitive's corners, not a mesh)
 MIN_SLAB_POINTS = 12  # the fewest object points between the fingers that tell the width they close on
 FINGER_HALF_WIDTH = 0.015  # m: object points this near the fingers' plane are between them
 # The hand coming straight down to a top-down grasp, as boxes in its own frame: half extent along the hand's x,
@@ -112,6 +117,8 @@ PLACE_CELL = 0.01  # m between the rays that map a container's floor or a plate 
 PLACE_FLATNESS = 0.02  # m a place spot may rise above the lowest point of the container or plate
 OPEN_FINGER_REACH = 0.05  # m from the TCP to the outer face of an open finger, along the closing direction
 PLACE_MARGIN = 0.015  # m kept between an object set down in a container or on a plate and what is already there
+PLACE_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees the hand may turn to fit a place
+PLACE_MIDDLE = 0.04  # m: a long object too big for a floor has at least this much around its middle over it
 PLACE_REACH_TRIES = 12  # free spots tried for reach where the middle is out of reach ...
 PLACE_REACH_MARGIN = 0.04  # ... and the one chosen this much nearer the robot than the farthest reached, if free
 
@@ -153,8 +160,9 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
     if predicate in ("outside_of", "outside_of_and_on_surface"):
         env.eval_context.refresh()
         footprints: list[np.ndarray] = []
-        for name in objects:
-            footprints.append(free_spot(env, name, avoid=objects, taken=footprints))
+        for name in objects:  # an object taken off a shelf level goes down near where it is, not behind the shelf
+            near = _centre(env, name)[:2] if not env.scene.gpu_sim_enabled and covered(env, name) else None
+            footprints.append(free_spot(env, name, avoid=objects, taken=footprints, near=near))
         return [Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)]
     raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
 
@@ -185,6 +193,7 @@ class OraclePolicy(Policy):
         if self.env is None:
             raise OracleFailure("the oracle reads the simulator: call bind(env) before reset()")
         _seed_inverse_kinematics(seed)
+        self._sync_fixtures()
         self.jobs = deque(jobs_for(self.env))
         self.actions.clear()
         self.gripper = 0.0
@@ -201,6 +210,9 @@ class OraclePolicy(Policy):
         env = self.env
         if job.upright:
             self._plan_reorientation(job.obj)
+            return
+        if not env.scene.gpu_sim_enabled and covered(env, job.obj):  # on a shelf level under another
+            self._plan_front_job(job)
             return
         grasp = grasp_pose(env, job.obj)
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
@@ -219,6 +231,80 @@ class OraclePolicy(Policy):
             return
         lifted = _above(env, grasp, LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
         qpos = self._move(qpos, lifted, f"lift '{job.obj}'")
+        where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
+        qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
+        qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
+        self._hold(qpos, 0.0, GRIPPER_STEPS)
+        self._move(qpos, above_place, f"retreat from {where}")
+
+    def _sync_fixtures(self) -> None:
+        """Give the planner the episode's fixtures (shelves) as boxes, so that inverse kinematics and the planned
+        moves keep the arm out of them (the other objects are left out: the hand reaches in among them)."""
+        import mplib.pymp as mp
+
+        fcl = mp.collision_detection.fcl
+        for name in getattr(self, "_fixture_names", []):
+            self._planner.remove_normal_object(name)
+        self._fixture_names = []
+        if self.env.scene.gpu_sim_enabled:
+            return
+        for index, (rotation, centre, half) in enumerate(_fixture_boxes(self.env)):
+            name = f"fixture_{index}"
+            box = fcl.CollisionObject(fcl.Box(2 * half), centre, _matrix_to_quaternion(rotation))
+            self._planner.set_normal_object(name, box)
+            self._fixture_names.append(name)
+
+    def _collides(self, qpos: np.ndarray) -> bool:
+        """Whether the arm at planning-model joints `qpos` collides with itself or a fixture."""
+        planner = self._planner
+        if planner.check_for_self_collision(qpos=qpos):
+            return True
+        return bool(self._fixture_names) and bool(planner.check_for_env_collision(qpos=qpos))
+
+    def _plan_front_job(self, job: Job) -> None:
+        """Take an object off a shelf level under another one: the hand comes in leaning out of the shelf (see
+        `front_grasps`), grasps, lifts the object off the level a little and pulls it straight out, then carries
+        it on as `_plan_job` does. Grasps are tried in turn until one can be planned."""
+        grasps = front_grasps(self.env, job.obj)
+        if not grasps:
+            raise OracleFailure(f"'{job.obj}' is under a shelf level and no hand leaning in from the open side "
+                                "clears the shelf")  # fmt: skip
+        planned, failure = len(self.actions), None
+        for grasp in grasps:
+            try:
+                self._plan_front_attempt(job, grasp)
+                return
+            except OracleFailure as error:
+                failure = error
+                while len(self.actions) > planned:
+                    self.actions.pop()
+                self.gripper = 0.0
+        raise failure
+
+    def _plan_front_attempt(self, job: Job, grasp: FrontGrasp) -> None:
+        """The moves of `_plan_front_job` with one front grasp."""
+        env = self.env
+        out = pulled_out(env, job.obj, grasp)
+        if out is None:
+            raise OracleFailure(f"cannot pull '{job.obj}' out of the shelf: the hand would hit it")
+        held_offset = grasp.pose[:2] - _centre(env, job.obj)[:2]
+        held_bottom = grasp.pose[2] - object_bottom(env, job.obj)
+        if job.onto is not None or job.at is not None:
+            spread = job.onto is not None and not job.centred
+            spot = free_place(env, job.obj, job.onto, grasp.pose, held_bottom, self._can_lower) if spread else None
+            place, above_place = spot if spot is not None else place_pose(env, job, grasp.pose, held_bottom,
+                                                                           held_offset)  # fmt: skip
+        qpos = self._planner_qpos()
+        qpos = self._move(qpos, grasp.entry, f"reach in front of '{job.obj}'", straight=False)
+        qpos = self._move(qpos, grasp.approach, f"reach in towards '{job.obj}'")
+        qpos = self._move(qpos, grasp.pose, f"reach in to '{job.obj}'")
+        self._hold(qpos, 1.0, GRIPPER_STEPS)
+        qpos = self._move(qpos, _raised(grasp.pose, FRONT_LIFT), f"lift '{job.obj}' off its level")
+        qpos = self._move(qpos, out, f"pull '{job.obj}' out of the shelf")
+        if job.onto is None and job.at is None:
+            self._move(qpos, _raised(out, job.lift), f"lift '{job.obj}'")
+            return
+        qpos = self._move(qpos, _raised(out, LIFT_HEIGHT), f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
         qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
@@ -412,7 +498,7 @@ class OraclePolicy(Policy):
             solution = np.asarray(solution)
             if (not converged or np.any(solution[:7] < lower - 1e-3) or np.any(solution[:7] > upper + 1e-3)
                     or np.abs(solution[:7] - current[:7]).max() > MAX_JOINT_JUMP
-                    or planner.check_for_self_collision(qpos=solution)):  # fmt: skip
+                    or self._collides(solution)):  # fmt: skip
                 return {"status": "straight move failed"}
             current = solution
             path.append(current[:7].copy())
@@ -426,7 +512,7 @@ class OraclePolicy(Policy):
         for goal in goals:
             count = int(np.ceil(np.max(np.abs(goal[:7] - qpos[:7])) / JOINT_PATH_RESOLUTION)) + 1
             path = np.linspace(qpos, goal, max(count, 2))
-            if any(planner.check_for_self_collision(qpos=point) for point in path):
+            if any(self._collides(point) for point in path):
                 continue
             if count == 1:
                 return {"status": "Success", "position": path[-1:, :7]}
@@ -509,12 +595,21 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     bottom = points[:, 2].min()  # of the whole object: what the fingertips must stay clear of is below it
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
     part_only = not _hits(env, name, centre[:2], points[:, 2].max())
+    tool = _tool(env, name, points) or _heavy(env, name)
+    if tool:  # held far from its mass centre it twists out of the pads
+        mass_centre = _mass_centre(env, name)
+        seen = _footprint_points(env, name, points)
+        if _hits(env, name, mass_centre[:2], points[:, 2].max()) or _spans(points if seen is None else seen,
+                                                                            mass_centre):  # fmt: skip
+            centre, part_only = np.array([mass_centre[0], mass_centre[1], centre[2]]), False
     if part_only:  # the middle is empty: grasp the part of the object nearest to it
         nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
         points = points[np.linalg.norm(points[:, :2] - nearest[:2], axis=1) < PART_RADIUS]
         centre = np.array([nearest[0], nearest[1], (points[:, 2].max() + points[:, 2].min()) / 2])
+    footprint = _footprint_points(env, name, points) if tool and not part_only else None  # a tool's top, mapped
     if closing is None:
-        xy = points[:, :2] - points[:, :2].mean(axis=0)
+        spread = points if footprint is None or len(footprint) < MIN_SLAB_POINTS else footprint
+        xy = spread[:, :2] - spread[:, :2].mean(axis=0)
         _, vectors = np.linalg.eigh(xy.T @ xy)
         narrowest = vectors[:, 0]  # the direction of least spread: the fingers close along it by preference
         directions = [_turned(narrowest, angle) for angle in GRASP_TURNS]
@@ -531,7 +626,9 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         for shift in shifts or [0.0]:
             xy = centre[:2] + along * shift
             slab = points[np.abs(points[:, :2] @ along - xy @ along) < FINGER_HALF_WIDTH]
-            if len(slab) < MIN_SLAB_POINTS:  # too few surface points there to measure (a box has only its corners)
+            if len(slab) < MIN_SLAB_POINTS and footprint is not None:  # a box has only its corners: the top seen
+                slab = footprint[np.abs(footprint[:, :2] @ along - xy @ along) < FINGER_HALF_WIDTH]  # from above
+            if len(slab) < MIN_SLAB_POINTS:  # too few surface points there to measure
                 slab = points
             z, width = _grasp_height(slab, direction, bottom)
             fingers, body = _hand_clash(heights, xy, direction, z)
@@ -549,6 +646,62 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         if wall is not None:
             return wall
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
+
+
+def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
+    """The object's centre of mass in the world (x, y, z), from the simulator's body."""
+    actor = env.objects[name]
+    body = actor._bodies[0]
+    return np.asarray((actor.pose.sp * body.cmass_local_pose).p, dtype=np.float64)
+
+
+def _heavy(env: RoboLabEnv, name: str) -> bool:
+    """Whether the object weighs HEAVY_MASS or more (a drill): held off its mass centre, it turns in the pads."""
+    return float(env.objects[name]._bodies[0].mass) >= HEAVY_MASS
+
+
+def _tool(env: RoboLabEnv, name: str, points: np.ndarray) -> bool:
+    """Whether the object is a long tool (a hammer, a clamp, a ladle): long and LONG_TOOL_MASS or heavier."""
+    return _long_object(points) and float(env.objects[name]._bodies[0].mass) >= LONG_TOOL_MASS
+
+
+def _long_object(points: np.ndarray) -> bool:
+    """Whether the object's footprint is long (a tool, a utensil): at least LONG_RATIO times as long as wide, and
+    longer than the open fingers' gap."""
+    xy = points[:, :2] - points[:, :2].mean(axis=0)
+    _, vectors = np.linalg.eigh(xy.T @ xy)
+    extents = np.ptp(xy @ vectors, axis=0)  # narrowest, then widest
+    return bool(extents[1] > OPEN_FINGER_GAP and extents[1] > LONG_RATIO * extents[0])
+
+
+def _spans(points: np.ndarray, at: np.ndarray) -> bool:
+    """Whether the open fingers, closing across the object's narrowest horizontal direction at `at`, go round
+    all of it there (a spring clamp's two handles)."""
+    xy = points[:, :2] - points[:, :2].mean(axis=0)
+    _, vectors = np.linalg.eigh(xy.T @ xy)
+    narrowest, along = vectors[:, 0], vectors[:, 1]
+    slab = points[np.abs((points[:, :2] - at[:2]) @ along) < 2 * FINGER_HALF_WIDTH]
+    return len(slab) >= 2 and float(np.ptp(slab[:, :2] @ narrowest)) < MAX_GRASP_WIDTH
+
+
+def _footprint_points(env: RoboLabEnv, name: str, points: np.ndarray) -> np.ndarray | None:
+    """The object seen from above: for every cell of a FOOTPRINT_CELL grid over its footprint where a vertical
+    ray meets it first, a point at its top there and one at its bottom (as if its sides were vertical); None off
+    the CPU simulator or where the object has enough surface points of its own (a mesh)."""
+    if env.scene.gpu_sim_enabled or len(points) > FOOTPRINT_MAX_POINTS:
+        return None
+    low, high = points[:, :2].min(axis=0), points[:, :2].max(axis=0)
+    bottom, top = float(points[:, 2].min()), float(points[:, 2].max())
+    xs = np.arange(low[0] + FOOTPRINT_CELL / 2, high[0], FOOTPRINT_CELL)
+    ys = np.arange(low[1] + FOOTPRINT_CELL / 2, high[1], FOOTPRINT_CELL)
+    found = []
+    for x in xs:
+        for y in ys:
+            z = _ray_hit(env, name, np.array([x, y, top + 0.01]), -1.0)
+            if z is not None:
+                found.append((x, y, z))
+                found.append((x, y, bottom))
+    return np.array(found) if found else None
 
 
 def _too_wide(points: np.ndarray, closing: np.ndarray, z: float) -> bool:
@@ -745,11 +898,7 @@ def free_place(
     target = _world_points(env, onto)
     low, high = target[:, :2].min(axis=0), target[:, :2].max(axis=0)
     middle = (low + high) / 2
-    held = _world_points(env, name)[:, :2] - grasp[:2]  # the held object relative to the TCP
-    body_low, body_high = held.min(axis=0), held.max(axis=0)
-    closing = quat_to_matrix(grasp[3:])[:2, 1]
-    fingers = np.abs(closing) * OPEN_FINGER_REACH + np.abs(closing[::-1]) * FINGER_HALF_WIDTH
-    foot_low, foot_high = np.minimum(body_low, -fingers), np.maximum(body_high, fingers)
+    held_points = _world_points(env, name)[:, :2] - grasp[:2]  # the held object relative to the TCP
     radius = float(np.max(high - middle)) + PLACE_CELL
     cells, heights, names = _surface_grid(env, name, middle, radius, PLACE_CELL)
     on_target = np.array([other == onto for other in names])
@@ -758,25 +907,47 @@ def free_place(
     level = heights[on_target].min()
     flat = on_target & (heights <= level + PLACE_FLATNESS)
     others = np.array([other is not None and other != onto for other in names])
-    centre_offset = (body_low + body_high) / 2
-    candidates = cells[flat] - centre_offset  # TCP positions putting the object's middle over a flat cell
-    order = np.argsort(np.linalg.norm(candidates + centre_offset - middle, axis=1), kind="stable")
     is_container = env.eval_context.entries[onto].is_container
     free = []  # release poses, middlemost first
-    # the object and the open fingers with room around; where nothing has that room, the object alone
-    for foot_low, foot_high, margin in ((foot_low, foot_high, PLACE_MARGIN), (body_low, body_high, 0.0)):
-        for tcp in candidates[order]:
-            local = cells - tcp
-            under = np.all((local >= foot_low) & (local <= foot_high), axis=1)
-            if not flat[under].all() and (is_container or on_target[under & ~flat].any()):
-                continue  # on a wall, a rim or the edge (a plate may have the table under the fingers)
-            near = np.all((local >= body_low - margin) & (local <= body_high + margin), axis=1)
-            if others[near].any():
-                continue
-            z = heights[under].max() + RELEASE_CLEARANCE + held_bottom
-            free.append(np.concatenate([[tcp[0], tcp[1], z], grasp[3:]]))
+    # the object and the open fingers with room around; where nothing has that room, the object alone; the hand
+    # turned about the vertical as little as needed (a long tool fits a bin only along it)
+    # last, for a long object that fits no floor (its middle is what counts as in): its middle over the floor and the
+    # rest over whatever is there (a rim), released above all of it
+    tool = _tool(env, name, held_points)
+    passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (False, True))
+    for with_fingers, whole in passes:
+        for turn in PLACE_TURNS if tool else PLACE_TURNS[:1]:  # only a long tool turns (a spoon fits as held)
+            spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
+            held = held_points @ spin[:2, :2].T
+            quaternion = _matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))
+            body_low, body_high = held.min(axis=0), held.max(axis=0)
+            if with_fingers:
+                closing = (spin @ quat_to_matrix(grasp[3:]))[:2, 1]
+                fingers = np.abs(closing) * OPEN_FINGER_REACH + np.abs(closing[::-1]) * FINGER_HALF_WIDTH
+                foot_low, foot_high = np.minimum(body_low, -fingers), np.maximum(body_high, fingers)
+                margin = PLACE_MARGIN
+            else:
+                foot_low, foot_high, margin = body_low, body_high, 0.0
+            centre_offset = (body_low + body_high) / 2
+            candidates = cells[flat] - centre_offset  # TCP positions putting the object's middle over a flat cell
+            order = np.argsort(np.linalg.norm(candidates + centre_offset - middle, axis=1), kind="stable")
+            for tcp in candidates[order]:
+                local = cells - tcp
+                under = np.all((local >= foot_low) & (local <= foot_high), axis=1)
+                middle_part = under if whole else np.all(np.abs(local - centre_offset) <= PLACE_MIDDLE, axis=1)
+                if not flat[middle_part].all() and (is_container or on_target[middle_part & ~flat].any()):
+                    continue  # on a wall, a rim or the edge (a plate may have the table under the fingers)
+                near = np.all((local >= body_low - margin) & (local <= body_high + margin), axis=1)
+                if others[near].any():
+                    continue
+                z = heights[under].max() + RELEASE_CLEARANCE + held_bottom
+                free.append(np.concatenate([[tcp[0], tcp[1], z], quaternion]))
+            if free and whole:
+                break
         if free:
             break
+    if free and not whole:  # the turn and spot that let it down lowest (most of it over the floor)
+        free.sort(key=lambda pose: round(float(pose[2]), 2))
     if not free:
         return None
 
@@ -816,10 +987,11 @@ def _centre(env: RoboLabEnv, name: str) -> np.ndarray:
     return (points.max(axis=0) + points.min(axis=0)) / 2
 
 
-def free_spot(env: RoboLabEnv, name: str, avoid: list[str], taken: list[np.ndarray]) -> np.ndarray:
+def free_spot(env: RoboLabEnv, name: str, avoid: list[str], taken: list[np.ndarray],
+              near: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
     """A footprint [x_min, y_min, x_max, y_max] on the table where `name`, moved without turning, can be put down:
     SPOT_MARGIN clear of every other object's footprint (except those in `avoid`, which are on the move) and of the
-    footprints in `taken`; of those, the one nearest the middle of the safe area."""
+    footprints in `taken`; of those, the one nearest the point `near` (x, y), else the middle of the safe area."""
     own = _world_points(env, name)[:, :2]
     half = (own.max(axis=0) - own.min(axis=0)) / 2
     xs, ys = np.meshgrid(np.linspace(*TABLE_SAFE_X, 19), np.linspace(*TABLE_SAFE_Y, 33))
@@ -836,7 +1008,7 @@ def free_spot(env: RoboLabEnv, name: str, avoid: list[str], taken: list[np.ndarr
         ok &= gaps.max(axis=1) >= SPOT_MARGIN
     if not ok.any():
         raise OracleFailure(f"no free spot on the table for '{name}' {SPOT_MARGIN:.2f} m clear of everything else")
-    middle = np.array([np.mean(TABLE_SAFE_X), np.mean(TABLE_SAFE_Y)])
+    middle = np.array([np.mean(TABLE_SAFE_X), np.mean(TABLE_SAFE_Y)]) if near is None else np.asarray(near)
     spot = spots[ok][np.linalg.norm(spots[ok] - middle, axis=1).argmin()]
     return np.concatenate([spot - half, spot + half])
 
@@ -964,3 +1136,221 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         axis = np.cross(a, other)
         return Rotation.from_rotvec(axis / np.linalg.norm(axis) * np.pi).as_matrix()
     return Rotation.from_rotvec(axis / sine * np.arctan2(sine, cosine)).as_matrix()
+
+
+# ------------------------------------------------------------------------------------------------ front grasps
+# An object on a shelf level with another level above it cannot be reached from above: the hand comes in from the
+# open side, leaning out of the shelf, grasps, lifts it off the level a little and pulls it straight out.
+FRONT_TILTS = (15.0, 20.0, 25.0, 30.0, 40.0, 55.0, 70.0)  # degrees from vertical that the hand leans out of a covered level, least first
+FRONT_TURNS = (0.0, 20.0, -20.0, 40.0, -40.0)  # degrees the leaning direction turns away from the robot's direction
+FRONT_INSET = 0.03  # m inside a long object's end nearest the open side where a leaning hand grasps it
+FRONT_MARGIN = 0.008  # m kept between the hand and a fixture
+FRONT_APPROACH = 0.08  # m the hand comes in along its own axis to a front grasp
+FRONT_PAD_CLEARANCE = 0.001  # m between a leaning hand's lowest pad corner and the level under a thin object
+FRONT_PAD_BITE = 0.003  # m the pads' lower edge reaches below a thin part's top, their lowest corner at most ...
+FRONT_PAD_DIG = 0.005  # ... this far below the part's bottom (it rests a little above the level; the pad gives)
+FRONT_LIFT = 0.015  # m an object is lifted off its level before it is pulled out
+FRONT_PULL_STEP = 0.02  # m between the poses tried when pulling an object out of a shelf ...
+FRONT_PULL_MAX = 0.4  # ... at most this far
+PAD_HALF_WIDTH = 0.012  # m from the middle of a finger pad to its edge, across the fingers' plane
+# The hand as solid boxes in the TCP frame (z toward the fingertips): half extent along the hand's x, half extent
+# along the closing direction, and the span along z (the open fingers, the knuckles, the body and the wrist).
+HAND_SOLIDS = ((0.014, 0.075, -0.053, 0.0), (0.037, 0.042, -0.155, -0.053), (0.06, 0.06, -0.32, -0.155))
+HAND_SAMPLE = 0.01  # m between the points that sample the hand's solids
+
+
+@dataclass(frozen=True)
+class FrontGrasp:
+    """A grasp reached from the open side of a shelf: the TCP pose, the pose it comes in from along its own axis,
+    the pose outside the shelf (at the height of that one) from which the hand moves in, and the horizontal
+    direction (unit x, y) in which the held object is pulled out."""
+
+    pose: np.ndarray
+    approach: np.ndarray
+    entry: np.ndarray
+    out: np.ndarray
+
+
+def _fixture_boxes(env: RoboLabEnv) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The solid pieces of every fixture (shelves) as boxes in the world: rotation (3, 3), centre (3,), half
+    extents (3,). A procedural piece's own box (its bounding box where it is no box); a mesh piece's bounding box."""
+    env.eval_context.refresh()
+    boxes = []
+    for name in env.objects:
+        entry = env.eval_context.entries[name]
+        if not entry.is_fixture:
+            continue
+        rotation = env.eval_context.rotation(name)[0].cpu().numpy().astype(np.float64)
+        position = env.eval_context.position(name)[0].cpu().numpy().astype(np.float64)
+        if entry.parts:
+            for part in entry.parts:
+                if part.shape == "box":
+                    local, half = quat_to_matrix(part.rotation), np.asarray(part.size, dtype=np.float64)
+                else:
+                    local, half = np.eye(3), part.half_extent()
+                boxes.append((rotation @ local, rotation @ np.asarray(part.position) + position, half))
+        else:
+            for hull in entry.hulls:
+                low, high = hull.min(axis=0), hull.max(axis=0)
+                boxes.append((rotation, rotation @ ((low + high) / 2) + position, (high - low) / 2))
+    return boxes
+
+
+def _inside_boxes(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+                  margin: float) -> bool:  # fmt: skip
+    """Whether any of the world `points` (N, 3) lies within `margin` of one of the `boxes`."""
+    return any(bool(np.any(np.all(np.abs((points - centre) @ rotation) <= half + margin, axis=1)))
+               for rotation, centre, half in boxes)  # fmt: skip
+
+
+def _hand_points(pose: np.ndarray) -> np.ndarray:
+    """Points sampling the hand's solids (HAND_SOLIDS) at TCP pose [x, y, z, qw, qx, qy, qz], in the world (N, 3)."""
+    local = []
+    for half_x, half_y, z_from, z_to in HAND_SOLIDS:
+        axes = [np.linspace(-h, h, max(2, int(np.ceil(2 * h / HAND_SAMPLE)) + 1)) for h in (half_x, half_y)]
+        zs = np.linspace(z_from, z_to, max(2, int(np.ceil((z_to - z_from) / HAND_SAMPLE)) + 1))
+        local.append(np.stack(np.meshgrid(*axes, zs), axis=-1).reshape(-1, 3))
+    return np.concatenate(local) @ quat_to_matrix(pose[3:]).T + pose[:3]
+
+
+def _hand_clear(pose: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> bool:
+    """Whether the hand at TCP `pose` keeps FRONT_MARGIN from every fixture box."""
+    return not _inside_boxes(_hand_points(pose), boxes, FRONT_MARGIN)
+
+
+def covered(env: RoboLabEnv, name: str, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None) -> bool:
+    """Whether a fixture's piece (a shelf's upper level) lies over object `name` lower than a hand coming from
+    above would need: within the object's footprint and less than the hand's length above its top."""
+    boxes = _fixture_boxes(env) if boxes is None else boxes
+    points = _world_points(env, name)
+    low, high = points.min(axis=0), points.max(axis=0)
+    return bool(_covers(points, boxes))
+
+
+def _covers(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+            ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:  # fmt: skip
+    """The fixture boxes over the object of world `points`, less than the hand's length above its top."""
+    low, high = points.min(axis=0), points.max(axis=0)
+    reach = -HAND_SOLIDS[-1][2]
+    found = []
+    for rotation, centre, half in boxes:
+        extent = np.abs(rotation) @ half
+        box_low, box_high = centre - extent, centre + extent
+        over = np.all(box_low[:2] < high[:2]) and np.all(box_high[:2] > low[:2])
+        if over and high[2] <= box_low[2] < high[2] + reach:
+            found.append((rotation, centre, half))
+    return found
+
+
+def _open_sides(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> list[np.ndarray]:
+    """Horizontal directions (unit x, y) out of the shelf whose level covers the object of world `points`: the
+    outward normals of the covering board's sides that face the robot, the side nearest the object first."""
+    rotation, centre, half = _covers(points, boxes)[0]
+    towards_robot = -points[:, :2].mean(axis=0) / np.linalg.norm(points[:, :2].mean(axis=0))
+    sides = []
+    for axis in range(2):
+        normal = rotation[:2, axis] / np.linalg.norm(rotation[:2, axis])
+        for sign in (1.0, -1.0):
+            face = sign * normal
+            if face @ towards_robot > 0.0:
+                depth = float(centre[:2] @ face + half[axis] - (points[:, :2] @ face).max())
+                sides.append((depth, face))
+    return [face for _, face in sorted(sides, key=lambda item: item[0])]
+
+
+def _leaning_rotation(closing: np.ndarray, lean: np.ndarray, tilt: float) -> np.ndarray:
+    """The TCP rotation of a hand whose fingers close along horizontal `closing` and whose body leans `tilt` rad
+    from vertical towards horizontal `lean` (the fingertips point down and away from it)."""
+    y = np.array([closing[0], closing[1], 0.0]) / np.linalg.norm(closing[:2])
+    z = np.array([-lean[0] * np.sin(tilt), -lean[1] * np.sin(tilt), -np.cos(tilt)])
+    return np.stack([np.cross(y, z), y, z], axis=1)
+
+
+def front_grasps(env: RoboLabEnv, name: str) -> list[FrontGrasp]:
+    """Grasps of a covered object (see `covered`) by a hand that leans out of the shelf towards the robot, least
+    leaning first, each with the hand clear of every fixture at the grasp, on its way in and on the way out. A
+    standing container too wide for the fingers is held by its wall at the rim, on the side across the way out; a
+    long object near its end on the open side; anything else across its middle."""
+    env.eval_context.refresh()
+    boxes = _fixture_boxes(env)
+    points = _world_points(env, name)
+    bottom, top = float(points[:, 2].min()), float(points[:, 2].max())
+    centre = (points.max(axis=0) + points.min(axis=0)) / 2
+    sides = _open_sides(points, boxes)
+    wall = env.eval_context.entries[name].is_container and _tilt(env, name) < STANDING_TILT
+    rim = points[points[:, 2] > top - 0.01]
+    rim_centre = (rim[:, :2].max(axis=0) + rim[:, :2].min(axis=0)) / 2
+    radius = float(np.linalg.norm(rim[:, :2] - rim_centre, axis=1).max())
+    found = []
+    for tilt_deg in FRONT_TILTS:
+        tilt = np.radians(tilt_deg)
+        for turn, side_out in ((turn, side_out) for side_out in sides for turn in FRONT_TURNS):
+            lean = _turned(side_out, turn)
+            closing = np.array([-lean[1], lean[0]])
+            candidates = []  # (TCP position, closing direction)
+            if wall:
+                for side in (closing, -closing):
+                    walls = _wall_along(env, name, rim_centre, side, radius, top)
+                    if walls is not None:
+                        at = rim_centre + side * sum(walls) / 2
+                        candidates.append((np.array([at[0], at[1], top - WALL_GRASP_DEPTH]), side))
+            else:
+                along, across = points[:, :2] @ lean, points[:, :2] @ closing
+                length = float(np.ptp(along))
+                at_along = along.max() - FRONT_INSET if length > 4 * FRONT_INSET else (along.max() + along.min()) / 2
+                near = np.abs(along - at_along) < FRONT_INSET
+                if near.sum() < 2:
+                    near = np.ones(len(points), dtype=bool)
+                width = float(np.ptp(across[near]))
+                if width > MAX_GRASP_WIDTH:
+                    continue
+                at = lean * at_along + closing * (across[near].max() + across[near].min()) / 2
+                drop = float(np.interp(width, PAD_DROP_WIDTHS, PAD_DROP))
+                # the pads' lower edge leans with the hand: its lowest corner clear of the level, or (a thin part)
+                # its middle FRONT_PAD_BITE below the part's top with the corner at most FRONT_PAD_DIG below its bottom
+                part_top = float(points[near, 2].max())
+                low = bottom + drop * np.cos(tilt) + PAD_HALF_WIDTH * np.sin(tilt) + FRONT_PAD_CLEARANCE
+                bite = part_top - FRONT_PAD_BITE + drop * np.cos(tilt)
+                if bite < low:
+                    if low - bite > FRONT_PAD_DIG:
+                        continue
+                    low = bite
+                z = max(part_top - GRASP_DEPTH, low)
+                candidates.append((np.array([at[0], at[1], z]), closing))
+            for position, side in candidates:
+                rotation = _leaning_rotation(side, lean, tilt)
+                pose = np.concatenate([position, _matrix_to_quaternion(rotation)])
+                approach = _shifted(pose, -rotation[:, 2] * FRONT_APPROACH)
+                if not (_hand_clear(pose, boxes) and _hand_clear(approach, boxes)):
+                    continue
+                if not _hand_clear(_raised(pose, FRONT_LIFT), boxes):
+                    continue
+                entry = _outside(approach, lean, boxes)
+                if entry is not None:
+                    found.append(FrontGrasp(pose, approach, entry, lean))
+        if len(found) >= 4:
+            break
+    return found
+
+
+def _outside(pose: np.ndarray, out: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+             held: np.ndarray | None = None) -> np.ndarray | None:  # fmt: skip
+    """`pose` moved horizontally along `out` until the hand (and the `held` points, relative to the TCP) is outside
+    the footprint of every fixture box, the hand clear of them all the way; None if it would hit one first."""
+    tall = [(rotation, centre, half + np.array([0.0, 0.0, 1.0])) for rotation, centre, half in boxes]
+    direction = np.array([out[0], out[1], 0.0])
+    for distance in np.arange(0.0, FRONT_PULL_MAX + 1e-9, FRONT_PULL_STEP):
+        moved = _shifted(pose, direction * distance)
+        if not _hand_clear(moved, boxes):
+            return None
+        inside = _inside_boxes(_hand_points(moved), tall, FRONT_MARGIN)
+        if not inside and (held is None or not _inside_boxes(held + moved[:3], tall, FRONT_MARGIN)):
+            return moved
+    return None
+
+
+def pulled_out(env: RoboLabEnv, name: str, grasp: FrontGrasp) -> np.ndarray | None:
+    """The TCP pose, FRONT_LIFT above `grasp` and moved along its way out, where the hand and object `name` held
+    by it are outside every fixture's footprint; None if the hand would hit a fixture first."""
+    held = _world_points(env, name) - grasp.pose[:3]
+    return _outside(_raised(grasp.pose, FRONT_LIFT), grasp.out, _fixture_boxes(env), held)
