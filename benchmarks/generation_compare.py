@@ -122,16 +122,17 @@ def kinds_table(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_doc(doc: Path, tables: str) -> None:
+def write_doc(doc: Path, tables: str, begin: str = BEGIN, end: str = END) -> None:
+    """Replace what lies between the `begin` and `end` markers of `doc` with `tables`."""
     if not doc.exists():
         print(f"{doc} does not exist: tables not written", file=sys.stderr)
         return
     text = doc.read_text(encoding="utf-8")
-    if BEGIN not in text or END not in text:
-        print(f"{doc} has no {BEGIN} ... {END} markers: tables not written", file=sys.stderr)
+    if begin not in text or end not in text:
+        print(f"{doc} has no {begin} ... {end} markers: tables not written", file=sys.stderr)
         return
-    start, end = text.index(BEGIN) + len(BEGIN), text.index(END)
-    doc.write_text(text[:start] + "\n" + tables + text[end:], encoding="utf-8")
+    start, stop = text.index(begin) + len(begin), text.index(end)
+    doc.write_text(text[:start] + "\n" + tables + text[stop:], encoding="utf-8")
 
 
 def picture_grid(rows: list[dict], prompts: dict, out: Path, images: Path) -> None:

@@ -30,6 +30,7 @@ import time
 from pathlib import Path
 
 import yaml
+from generation_compare import write_doc  # the marked-section writer of the scene benchmark, beside this script
 
 from robolab_ms.catalog import load_catalog
 from robolab_ms.generation.judge import ALIGNED, MISALIGNED, RulesJudge
@@ -73,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
               "wall time for the whole run on 2 CPU cores shared with other work, no GPU).\n\n"
               + generated_tables(rows) + "\n" + judge_table)  # fmt: skip
     print(tables)
-    write_doc(Path(args.doc), tables)
+    write_doc(Path(args.doc), tables, BEGIN, END)
     return 0
 
 
@@ -216,18 +217,6 @@ def _short(problems: str) -> str:
     first = problems.split(" | ")[0]
     first = re.sub(r"^robolab validate \(\d+ seed\(s\)\): ", "", first)
     return first[:110].replace("|", "/")
-
-
-def write_doc(doc: Path, tables: str) -> None:
-    if not doc.exists():
-        print(f"{doc} does not exist: tables not written", file=sys.stderr)
-        return
-    text = doc.read_text(encoding="utf-8")
-    if BEGIN not in text or END not in text:
-        print(f"{doc} has no {BEGIN} ... {END} markers: tables not written", file=sys.stderr)
-        return
-    start, end = text.index(BEGIN) + len(BEGIN), text.index(END)
-    doc.write_text(text[:start] + "\n" + tables + text[end:], encoding="utf-8")
 
 
 if __name__ == "__main__":
