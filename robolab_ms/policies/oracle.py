@@ -655,14 +655,19 @@ def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
     return np.asarray((actor.pose.sp * body.cmass_local_pose).p, dtype=np.float64)
 
 
+def _mass(env: RoboLabEnv, name: str) -> float:
+    """The object's mass in kg, from the simulator's body."""
+    return float(env.objects[name]._bodies[0].mass)
+
+
 def _heavy(env: RoboLabEnv, name: str) -> bool:
     """Whether the object weighs HEAVY_MASS or more (a drill): held off its mass centre, it turns in the pads."""
-    return float(env.objects[name]._bodies[0].mass) >= HEAVY_MASS
+    return _mass(env, name) >= HEAVY_MASS
 
 
 def _tool(env: RoboLabEnv, name: str, points: np.ndarray) -> bool:
     """Whether the object is a long tool (a hammer, a clamp, a ladle): long and LONG_TOOL_MASS or heavier."""
-    return _long_object(points) and float(env.objects[name]._bodies[0].mass) >= LONG_TOOL_MASS
+    return _long_object(points) and _mass(env, name) >= LONG_TOOL_MASS
 
 
 def _long_object(points: np.ndarray) -> bool:
