@@ -23,6 +23,7 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle_reorient import end_grasp
 
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
@@ -339,6 +340,10 @@ class OraclePolicy(Policy):
         else:
             closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
             attempts = [lambda c=c: self._plan_reorientation_holding(name, up, c) for c in (closing, -closing)]
+            end = end_grasp(env, name, up)  # first: held by the narrow part at its top end and tipped up about its base
+            if end is not None:
+                attempts[:0] = [lambda g=g: self._plan_pivot_upright(name, up, g, backing=np.array([0.0, 0.0, 1.0]))
+                                for g in (end, _rolled(end))]  # fmt: skip
         for attempt, plan in enumerate(attempts):
             try:
                 plan()
@@ -349,10 +354,12 @@ class OraclePolicy(Policy):
                 if attempt == len(attempts) - 1:
                     raise
 
-    def _plan_pivot_upright(self, name: str, up: np.ndarray, grasp: np.ndarray) -> None:
-        """Hold a lying container by its rim (`grasp`, reached straight through its opening) and tip it up about
-        the lowest point of its base, which stays on the table, then let go and lift the hand. The arm posture at
-        the grasp is chosen so that the whole tipping motion is one chain of straight moves."""
+    def _plan_pivot_upright(self, name: str, up: np.ndarray, grasp: np.ndarray, backing: np.ndarray | None = None
+                            ) -> None:  # fmt: skip
+        """Hold a lying container by its rim (`grasp`, reached straight through its opening; or any grasp reached
+        straight along `backing`, the direction the hand backs away from it) and tip it up about the lowest point
+        of its base, which stays on the table, then let go and lift the hand. The arm posture at the grasp is
+        chosen so that the whole tipping motion is one chain of straight moves."""
         env, planner = self.env, self._planner
         points = _world_points(env, name)
         base_end = points[points @ up < (points @ up).min() + 0.01]
@@ -372,8 +379,9 @@ class OraclePolicy(Policy):
             at_grasp = qpos.copy()
             at_grasp[:7] = posture[:7]
             tip_paths = self._straight_chain(at_grasp, tipping)
-            outside = _shifted(grasp, up * RIM_APPROACH)
-            back_out = self._straight_chain(at_grasp, [outside, _raised(outside, APPROACH_HEIGHT)])
+            outside = _shifted(grasp, (up if backing is None else backing) * RIM_APPROACH)
+            high = _raised(outside, APPROACH_HEIGHT) if backing is None else _above(env, outside, APPROACH_HEIGHT, 0.0)
+            back_out = self._straight_chain(at_grasp, [outside, high])
             if tip_paths is not None and back_out is not None:
                 break
         else:
