@@ -23,7 +23,7 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
-from robolab_ms.policies.oracle_reorient import end_grasp
+from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
@@ -335,8 +335,10 @@ class OraclePolicy(Policy):
         planned = len(self.actions)
         if env.eval_context.entries[name].is_container:
             grasp = rim_grasp(env, name, up)
-            # the hand may hold the rim either way up; near joint limits only one of them can be planned
-            attempts = [lambda g=g: self._plan_pivot_upright(name, up, g) for g in (grasp, _rolled(grasp))]
+            # the hand may hold the rim either way up; near joint limits only one of them can be planned; turned
+            # about the vertical where the hand would meet a neighbour on the line of the container's axis
+            attempts = [lambda g=g: self._plan_pivot_upright(name, up, g)
+                        for turned in turned_rim_grasps(env, name, grasp) for g in (turned, _rolled(turned))]
         else:
             closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
             attempts = [lambda c=c: self._plan_reorientation_holding(name, up, c) for c in (closing, -closing)]

@@ -49,3 +49,35 @@ def end_grasp(env: RoboLabEnv, name: str, up: np.ndarray) -> np.ndarray | None:
     xy = flat * (end - depth) + closing * middle
     z, _ = _grasp_height(slab, closing, bottom)
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(closing, keep_sign=True)])
+
+
+RIM_YAWS = (0.0, 20.0, -20.0, 35.0, -35.0, 50.0, -50.0)  # degrees a rim grasp's hand turns about the vertical ...
+RIM_PITCHES = (0.0, 12.0, 24.0, 36.0)  # ... and degrees its wrist rises (the pads tilt off the wall: a firm hold needs little)
+NEIGHBOUR_MARGIN = 0.01  # m kept between the hand at a grasp and the bounding box of any other object
+
+
+def turned_rim_grasps(env: RoboLabEnv, name: str, grasp: np.ndarray) -> list[np.ndarray]:
+    """The rim grasp `grasp` of lying container `name` (fingers closing vertically on the top of its wall) and the
+    same grasp with the hand turned about the vertical through the TCP by RIM_YAWS (the pads stay flat on the wall)
+    and its wrist raised by RIM_PITCHES: those whose hand keeps clear of every other object first, then the least
+    raised, then the least turned."""
+    from robolab_ms.catalog.procedural import quat_to_matrix
+    from robolab_ms.policies.oracle import _hand_points, _matrix_to_quaternion, _rotation_about, _world_points
+
+    boxes = []
+    for other in env.objects:
+        if other != name and not env.eval_context.entries[other].is_fixture:
+            points = _world_points(env, other)
+            boxes.append((points.min(axis=0) - NEIGHBOUR_MARGIN, points.max(axis=0) + NEIGHBOUR_MARGIN))
+    rotation = quat_to_matrix(grasp[3:])
+    side = rotation[:, 0] * (1.0 if np.cross(rotation[:, 0], rotation[:, 2])[2] < 0 else -1.0)  # raises the wrist
+    found = []
+    for pitch_rank, pitch in enumerate(RIM_PITCHES):
+        raised = _rotation_about(side, np.radians(pitch)) @ rotation
+        for yaw_rank, yaw in enumerate(RIM_YAWS):
+            turned = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(yaw)) @ raised
+            pose = np.concatenate([grasp[:3], _matrix_to_quaternion(turned)])
+            hand = _hand_points(pose)
+            clash = any(bool(np.any(np.all((hand >= low) & (hand <= high), axis=1))) for low, high in boxes)
+            found.append((clash, pitch_rank, yaw_rank, pose))
+    return [pose for *_, pose in sorted(found, key=lambda item: item[:3])]
