@@ -160,12 +160,34 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
         return [Job(name, upright=True) for name in objects if _tilt(env, name) > tolerance]
     if predicate in ("outside_of", "outside_of_and_on_surface"):
         env.eval_context.refresh()
+        objects = _top_first(env, objects)  # a stack is taken apart from the top
         footprints: list[np.ndarray] = []
         for name in objects:  # an object taken off a shelf level goes down near where it is, not behind the shelf
             near = _centre(env, name)[:2] if not env.scene.gpu_sim_enabled and covered(env, name) else None
-            footprints.append(free_spot(env, name, avoid=objects, taken=footprints, near=near))
+            moved = objects[: len(footprints) + 1]  # those not yet moved still stand where they are
+            footprints.append(free_spot(env, name, avoid=moved, taken=footprints, near=near))
         return [Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)]
     raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
+
+
+def _top_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
+    """`objects` in their order, except that one resting on another of them (its bottom within a centimetre of the
+    other's top, their footprints overlapping) comes before it."""
+    boxes = {name: (_world_points(env, name).min(axis=0), _world_points(env, name).max(axis=0)) for name in objects}
+
+    def rests_on(upper: str, lower: str) -> bool:
+        (low_u, high_u), (low_l, high_l) = boxes[upper], boxes[lower]
+        overlap = bool(np.all(low_u[:2] < high_l[:2]) and np.all(low_l[:2] < high_u[:2]))
+        return overlap and abs(low_u[2] - high_l[2]) < 0.01
+
+    ordered = list(objects)
+    for _ in range(len(ordered) ** 2):  # move an object before the first one it rests on, until none is after one
+        moves = [(i, j) for i, upper in enumerate(ordered) for j, lower in enumerate(ordered[:i]) if rests_on(upper, lower)]
+        if not moves:
+            break
+        i, j = moves[0]
+        ordered.insert(j, ordered.pop(i))
+    return ordered
 
 
 class OraclePolicy(Policy):
