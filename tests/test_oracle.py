@@ -1,5 +1,6 @@
 """The oracle policy and task validation, sized for CI: a few episodes of BananaInBowl, MustardInLeftBin, RubiksCube
-and BananasOutOfBin, a mug held by its wall, and fixture scenes for stacking, standing a block up and standing a lying mug up."""
+and BananasOutOfBin, a mug held by its wall, fixture scenes for stacking, standing a block up and standing a lying
+mug up, a lying jug stood up by its neck and a stack taken apart from the top."""
 
 import pytest
 from helpers import put
@@ -167,3 +168,36 @@ def test_a_grasp_above_a_flat_part_is_not_too_wide():
     spoon = np.array([[0.0, 0.0, 0.0], [0.15, 0.03, 0.0], [0.0, 0.03, 0.012], [0.15, 0.0, 0.012]])
     assert not _too_wide(spoon, np.array([0.0, 1.0]), z=0.03)
     assert _too_wide(spoon, np.array([1.0, 0.0]), z=0.005)  # along its 15-cm length
+
+
+def test_oracle_stands_a_lying_jug_up_by_its_neck(tmp_path):
+    """The blue jug (0.8 kg, 12 cm square) lies on its side: too wide to hold across its body, it is held by its
+    neck from above and tipped up about its base."""
+    from robolab_ms.envs import RoboLabEnv
+    from robolab_ms.policies.oracle_reorient import end_grasp
+
+    env = RoboLabEnv(task="ReorientJug", obs_mode="state_dict", render_backend="cpu")
+    env.reset(seed=0)
+    env.eval_context.refresh()
+    up = env.eval_context.up_axis("utilityjug_a02")[0].numpy().astype(float)
+    grasp = end_grasp(env, "utilityjug_a02", up)
+    centre = env.eval_context.centre("utilityjug_a02")[0].numpy()
+    env.close()
+    assert grasp is not None and (grasp[:2] - centre[:2]) @ up[:2] > 0.1  # at the neck, 11 cm or more off the middle
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("ReorientJug",), episodes=1), tmp_path,
+                             show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success, results[0]
+
+
+def test_oracle_takes_a_stack_apart_from_the_top():
+    from robolab_ms.envs import RoboLabEnv
+    from robolab_ms.policies.oracle import jobs_for
+
+    env = RoboLabEnv(task="UnstackRubiksCube", obs_mode="state_dict", render_backend="cpu")
+    env.reset(seed=0)
+    env.eval_context.refresh()
+    jobs = jobs_for(env)
+    stack = env.eval_context.centre("rubiks_cube_bottom")[0, :2].numpy()
+    env.close()
+    assert [job.obj for job in jobs] == ["rubiks_cube_top", "rubiks_cube_middle", "rubiks_cube_bottom"]
+    assert all(abs(job.at[0] - stack[0]) > 0.05 or abs(job.at[1] - stack[1]) > 0.05 for job in jobs[:2])  # off it

@@ -23,6 +23,7 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
@@ -159,12 +160,34 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
         return [Job(name, upright=True) for name in objects if _tilt(env, name) > tolerance]
     if predicate in ("outside_of", "outside_of_and_on_surface"):
         env.eval_context.refresh()
+        objects = _top_first(env, objects)  # a stack is taken apart from the top
         footprints: list[np.ndarray] = []
         for name in objects:  # an object taken off a shelf level goes down near where it is, not behind the shelf
             near = _centre(env, name)[:2] if not env.scene.gpu_sim_enabled and covered(env, name) else None
-            footprints.append(free_spot(env, name, avoid=objects, taken=footprints, near=near))
+            moved = objects[: len(footprints) + 1]  # those not yet moved still stand where they are
+            footprints.append(free_spot(env, name, avoid=moved, taken=footprints, near=near))
         return [Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)]
     raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
+
+
+def _top_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
+    """`objects` in their order, except that one resting on another of them (its bottom within a centimetre of the
+    other's top, their footprints overlapping) comes before it."""
+    boxes = {name: (_world_points(env, name).min(axis=0), _world_points(env, name).max(axis=0)) for name in objects}
+
+    def rests_on(upper: str, lower: str) -> bool:
+        (low_u, high_u), (low_l, high_l) = boxes[upper], boxes[lower]
+        overlap = bool(np.all(low_u[:2] < high_l[:2]) and np.all(low_l[:2] < high_u[:2]))
+        return overlap and abs(low_u[2] - high_l[2]) < 0.01
+
+    ordered = list(objects)
+    for _ in range(len(ordered) ** 2):  # move an object before the first one it rests on, until none is after one
+        moves = [(i, j) for i, upper in enumerate(ordered) for j, lower in enumerate(ordered[:i]) if rests_on(upper, lower)]
+        if not moves:
+            break
+        i, j = moves[0]
+        ordered.insert(j, ordered.pop(i))
+    return ordered
 
 
 class OraclePolicy(Policy):
@@ -334,11 +357,17 @@ class OraclePolicy(Policy):
         planned = len(self.actions)
         if env.eval_context.entries[name].is_container:
             grasp = rim_grasp(env, name, up)
-            # the hand may hold the rim either way up; near joint limits only one of them can be planned
-            attempts = [lambda g=g: self._plan_pivot_upright(name, up, g) for g in (grasp, _rolled(grasp))]
+            # the hand may hold the rim either way up; near joint limits only one of them can be planned; turned
+            # about the vertical where the hand would meet a neighbour on the line of the container's axis
+            attempts = [lambda g=g: self._plan_pivot_upright(name, up, g)
+                        for turned in turned_rim_grasps(env, name, grasp) for g in (turned, _rolled(turned))]
         else:
             closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
             attempts = [lambda c=c: self._plan_reorientation_holding(name, up, c) for c in (closing, -closing)]
+            end = end_grasp(env, name, up)  # first: held by the narrow part at its top end and tipped up about its base
+            if end is not None:
+                attempts[:0] = [lambda g=g: self._plan_pivot_upright(name, up, g, backing=np.array([0.0, 0.0, 1.0]))
+                                for g in (end, _rolled(end))]  # fmt: skip
         for attempt, plan in enumerate(attempts):
             try:
                 plan()
@@ -349,10 +378,12 @@ class OraclePolicy(Policy):
                 if attempt == len(attempts) - 1:
                     raise
 
-    def _plan_pivot_upright(self, name: str, up: np.ndarray, grasp: np.ndarray) -> None:
-        """Hold a lying container by its rim (`grasp`, reached straight through its opening) and tip it up about
-        the lowest point of its base, which stays on the table, then let go and lift the hand. The arm posture at
-        the grasp is chosen so that the whole tipping motion is one chain of straight moves."""
+    def _plan_pivot_upright(self, name: str, up: np.ndarray, grasp: np.ndarray, backing: np.ndarray | None = None
+                            ) -> None:  # fmt: skip
+        """Hold a lying container by its rim (`grasp`, reached straight through its opening; or any grasp reached
+        straight along `backing`, the direction the hand backs away from it) and tip it up about the lowest point
+        of its base, which stays on the table, then let go and lift the hand. The arm posture at the grasp is
+        chosen so that the whole tipping motion is one chain of straight moves."""
         env, planner = self.env, self._planner
         points = _world_points(env, name)
         base_end = points[points @ up < (points @ up).min() + 0.01]
@@ -372,8 +403,9 @@ class OraclePolicy(Policy):
             at_grasp = qpos.copy()
             at_grasp[:7] = posture[:7]
             tip_paths = self._straight_chain(at_grasp, tipping)
-            outside = _shifted(grasp, up * RIM_APPROACH)
-            back_out = self._straight_chain(at_grasp, [outside, _raised(outside, APPROACH_HEIGHT)])
+            outside = _shifted(grasp, (up if backing is None else backing) * RIM_APPROACH)
+            high = _raised(outside, APPROACH_HEIGHT) if backing is None else _above(env, outside, APPROACH_HEIGHT, 0.0)
+            back_out = self._straight_chain(at_grasp, [outside, high])
             if tip_paths is not None and back_out is not None:
                 break
         else:
