@@ -1157,6 +1157,7 @@ FRONT_PAD_DIG = 0.005  # ... this far below the part's bottom (it rests a little
 FRONT_LIFT = 0.015  # m an object is lifted off its level before it is pulled out
 FRONT_PULL_STEP = 0.02  # m between the poses tried when pulling an object out of a shelf ...
 FRONT_PULL_MAX = 0.4  # ... at most this far
+COVER_SHARE = 0.5  # the share of an object's points under a shelf's board that makes it covered by it
 PAD_HALF_WIDTH = 0.012  # m from the middle of a finger pad to its edge, across the fingers' plane
 # The hand as solid boxes in the TCP frame (z toward the fingertips): half extent along the hand's x, half extent
 # along the closing direction, and the span along z (the open fingers, the knuckles, the body and the wrist).
@@ -1234,14 +1235,19 @@ def covered(env: RoboLabEnv, name: str, boxes: list[tuple[np.ndarray, np.ndarray
 
 def _covers(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
             ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:  # fmt: skip
-    """The fixture boxes over the object of world `points`, less than the hand's length above its top."""
+    """The fixture boxes over the object of world `points` (over at least COVER_SHARE of its points, seen from
+    above: an object beside a shelf that reaches a little under it is not covered), less than the hand's length
+    above its top."""
     low, high = points.min(axis=0), points.max(axis=0)
     reach = -HAND_SOLIDS[-1][2]
     found = []
     for rotation, centre, half in boxes:
         extent = np.abs(rotation) @ half
         box_low, box_high = centre - extent, centre + extent
-        over = np.all(box_low[:2] < high[:2]) and np.all(box_high[:2] > low[:2])
+        local = (points - centre) @ rotation  # in the box's frame: under it where both horizontal axes are inside
+        horizontal = [axis for axis in range(3) if abs(rotation[2, axis]) < 0.5]
+        under = np.all(np.abs(local[:, horizontal]) <= half[horizontal], axis=1)
+        over = under.mean() >= COVER_SHARE
         if over and high[2] <= box_low[2] < high[2] + reach:
             found.append((rotation, centre, half))
     return found
