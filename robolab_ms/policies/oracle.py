@@ -83,7 +83,6 @@ TRAVEL_CLEARANCE = 0.04  # ... are passed this high above, by the fingertips or 
 FINGERTIP_BELOW_TCP = 0.01  # m the fingertips reach below the TCP
 PANDA_ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 FLANGE_LINK = "panda_link8"
-PLANNER_HAND_LINKS = ("panda_hand", "panda_leftfinger", "panda_rightfinger")  # the planning model's hand (a Panda's)
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
 PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
 JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-collision along a joint path
@@ -163,6 +162,9 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
         footprints: list[np.ndarray] = []
         for name in objects:  # an object taken off a shelf level goes down near where it is, not behind the shelf
             near = shelf_exit_spot(env, name) if not env.scene.gpu_sim_enabled and covered(env, name) else None
+            if near is not None and not (TABLE_SAFE_X[0] <= near[0] <= TABLE_SAFE_X[1]
+                                         and TABLE_SAFE_Y[0] <= near[1] <= TABLE_SAFE_Y[1]):  # fmt: skip
+                near = _centre(env, name)[:2]  # no room beside the shelf (a long object): near where it lies
             footprints.append(free_spot(env, name, avoid=objects, taken=footprints, near=near))
         return [Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)]
     raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
@@ -311,12 +313,7 @@ class OraclePolicy(Policy):
         planner = self._planner
         if planner.check_for_self_collision(qpos=qpos):
             return True
-        if not self._fixture_names:
-            return False
-        clashes = planner.check_for_env_collision(qpos=qpos)
-        if getattr(self, "_hand_checked_apart", False):  # the real hand is checked against the shelf on its own
-            clashes = [c for c in clashes if not {c.link_name1, c.link_name2} & set(PLANNER_HAND_LINKS)]
-        return bool(clashes)
+        return bool(self._fixture_names) and bool(planner.check_for_env_collision(qpos=qpos))
 
     def _plan_front_job(self, job: Job) -> None:
         """Take an object off a shelf level under another one: the hand comes in leaning out of the shelf (see
@@ -353,15 +350,11 @@ class OraclePolicy(Policy):
                                                                            held_offset)  # fmt: skip
         qpos = self._planner_qpos()
         qpos = self._move(qpos, grasp.entry, f"reach in front of '{job.obj}'", straight=False)
-        self._hand_checked_apart = True  # these straight moves keep the real hand clear of the shelf (front_grasps)
-        try:
-            qpos = self._move(qpos, grasp.approach, f"reach in towards '{job.obj}'")
-            qpos = self._move(qpos, grasp.pose, f"reach in to '{job.obj}'")
-            self._hold(qpos, 1.0, GRIPPER_STEPS)
-            qpos = self._move(qpos, _raised(grasp.pose, FRONT_LIFT), f"lift '{job.obj}' off its level")
-            qpos = self._move_straight(qpos, out, f"pull '{job.obj}' out of the shelf")
-        finally:
-            self._hand_checked_apart = False
+        qpos = self._move(qpos, grasp.approach, f"reach in towards '{job.obj}'")
+        qpos = self._move(qpos, grasp.pose, f"reach in to '{job.obj}'")
+        self._hold(qpos, 1.0, GRIPPER_STEPS)
+        qpos = self._move(qpos, _raised(grasp.pose, FRONT_LIFT), f"lift '{job.obj}' off its level")
+        qpos = self._move(qpos, out, f"pull '{job.obj}' out of the shelf")
         if job.onto is None and job.at is None:
             self._move(qpos, _raised(out, job.lift), f"lift '{job.obj}'")
             return
