@@ -201,3 +201,29 @@ def test_oracle_takes_a_stack_apart_from_the_top():
     env.close()
     assert [job.obj for job in jobs] == ["rubiks_cube_top", "rubiks_cube_middle", "rubiks_cube_bottom"]
     assert all(abs(job.at[0] - stack[0]) > 0.05 or abs(job.at[1] - stack[1]) > 0.05 for job in jobs[:2])  # off it
+
+
+def test_shelf_cover_and_the_spot_beside_the_shelf():
+    """The mugs on the rack's middle level are under its top board; the bowl beside the rack, reaching a few
+    millimetres under a post and the boards, is not. A mug taken off the level goes down on the table in front of
+    the rack (the robot's side), past the board's edge, and not on the rack's footprint."""
+    from robolab_ms.envs import RoboLabEnv
+    from robolab_ms.policies.oracle import _world_points, covered, jobs_for, shelf_exit_spot
+
+    for task, shelved in (("TakeMugsOffOfShelf", {"ceramic_mug", "mug"}), ("PutBowlOnShelfTop", set())):
+        env = RoboLabEnv(task=task, obs_mode="state_dict", render_backend="cpu")
+        try:
+            env.reset(seed=0)
+            env.eval_context.refresh()
+            assert {name for name in ("ceramic_mug", "mug", "serving_bowl") if covered(env, name)} == shelved
+            if shelved:
+                rack = _world_points(env, "rack_l04")
+                low, high = rack[:, :2].min(axis=0), rack[:, :2].max(axis=0)
+                for name in shelved:
+                    x, y = shelf_exit_spot(env, name)
+                    assert x < low[0] and not (low[1] < y < high[1]), (name, x, y)
+                for job in jobs_for(env):
+                    x, y = job.at
+                    assert x < low[0] or not (low[1] < y < high[1]), job  # never behind or on the rack
+        finally:
+            env.close()

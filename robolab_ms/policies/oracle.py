@@ -163,7 +163,10 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
         objects = _top_first(env, objects)  # a stack is taken apart from the top
         footprints: list[np.ndarray] = []
         for name in objects:  # an object taken off a shelf level goes down near where it is, not behind the shelf
-            near = _centre(env, name)[:2] if not env.scene.gpu_sim_enabled and covered(env, name) else None
+            near = shelf_exit_spot(env, name) if not env.scene.gpu_sim_enabled and covered(env, name) else None
+            if near is not None and not (TABLE_SAFE_X[0] <= near[0] <= TABLE_SAFE_X[1]
+                                         and TABLE_SAFE_Y[0] <= near[1] <= TABLE_SAFE_Y[1]):  # fmt: skip
+                near = _centre(env, name)[:2]  # no room beside the shelf (a long object): near where it lies
             moved = objects[: len(footprints) + 1]  # those not yet moved still stand where they are
             footprints.append(free_spot(env, name, avoid=moved, taken=footprints, near=near))
         return [Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)]
@@ -242,7 +245,8 @@ class OraclePolicy(Policy):
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
-            spot = free_place(env, job.obj, job.onto, grasp, held_bottom, self._can_lower) if spread else None
+            reachable = self._can_place_from_above_or_front(job.obj, grasp)
+            spot = free_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         above_grasp = _above(env, grasp, APPROACH_HEIGHT, hanging=0.0)
@@ -255,10 +259,60 @@ class OraclePolicy(Policy):
         lifted = _above(env, grasp, LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
         qpos = self._move(qpos, lifted, f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
-        qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
+        try:
+            qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
+        except OracleFailure:  # too high above a shelf: in from the front, if there is a way
+            way = self._front_place_way(job.obj, grasp, place)
+            if way is None:
+                raise
+            self._plan_front_place(qpos, job.obj, way, place, where)
+            return
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
         self._move(qpos, above_place, f"retreat from {where}")
+
+    def _front_place_way(self, name: str, grasp: np.ndarray, place: np.ndarray) -> np.ndarray | None:
+        """Where the TCP, holding `name` as grasped at `grasp`, waits in front of a place on a shelf that it cannot
+        be lowered to from high above: `place` raised by FRONT_PLACE_RISE and moved horizontally towards the robot
+        until the hand and the object are clear of every fixture's footprint. None without fixtures, or where the
+        hand would hit one on the way."""
+        if not self._fixture_names:
+            return None
+        held = _world_points(self.env, name) - grasp[:3]
+        toward = -place[:2] / np.linalg.norm(place[:2])
+        return _outside(_raised(place, FRONT_PLACE_RISE), toward, _fixture_boxes(self.env), held)
+
+    def _can_place_from_above_or_front(self, name: str, grasp: np.ndarray) -> Callable[[np.ndarray, np.ndarray], bool]:
+        """A test for `free_place`: whether the arm holding `name` (grasped at `grasp`) reaches the pose over a
+        place and lowers it straight from there, or else comes in horizontally from the front (`_front_place_way`)."""
+
+        def reachable(over: np.ndarray, place: np.ndarray) -> bool:
+            if self._can_lower(over, place):
+                return True
+            way = self._front_place_way(name, grasp, place)
+            if way is None:
+                return False
+            status, postures = self._planner.IK(self._flange_target(way), self._planner_qpos())
+            if status != "Success":
+                return False
+            start = self._planner_qpos()
+            start[:7] = postures[0][:7]
+            return self._straight_chain(start, [_raised(place, FRONT_PLACE_RISE), place]) is not None
+
+        return reachable
+
+    def _plan_front_place(self, qpos: np.ndarray, name: str, way: np.ndarray, place: np.ndarray, where: str) -> None:
+        """Set the held object down on a high shelf from the front: carry it to `way` (see `_front_place_way`),
+        slide it in horizontally over `place`, lower it, let go, and take the hand back up a little and out."""
+        qpos = self._move(qpos, way, f"carry '{name}' in front of {where}", straight=False)
+        qpos = self._move_straight(qpos, _raised(place, FRONT_PLACE_RISE), f"slide '{name}' in over {where}")
+        qpos = self._move_straight(qpos, place, f"lower '{name}' onto {where}")
+        self._hold(qpos, 0.0, GRIPPER_STEPS)
+        try:  # the object is let go: taking the hand out is a courtesy, not a must
+            qpos = self._move_straight(qpos, _raised(place, FRONT_PLACE_LEAVE), f"raise the hand off '{name}'")
+            self._move_straight(qpos, _raised(way, FRONT_PLACE_LEAVE - FRONT_PLACE_RISE), f"retreat from {where}")
+        except OracleFailure:
+            pass
 
     def _sync_fixtures(self) -> None:
         """Give the planner the episode's fixtures (shelves) as boxes, so that inverse kinematics and the planned
@@ -501,6 +555,15 @@ class OraclePolicy(Policy):
         if result["status"] != "Success":
             raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
         return self._queue(qpos, result["position"])
+
+    def _move_straight(self, qpos: np.ndarray, pose: np.ndarray, what: str) -> np.ndarray:
+        """Queue a straight move of the TCP to `pose` (mplib's screw motion where the straight line fails), never
+        a sampled path: for moves that must keep a held object on its line (out of a shelf); returns the final
+        joints."""
+        paths = self._straight_chain(qpos, [pose])
+        if paths is None:
+            raise OracleFailure(f"cannot {what}: no straight move")
+        return self._queue(qpos, paths[0])
 
     @property
     def _time_step(self) -> float:
@@ -1189,6 +1252,9 @@ FRONT_PAD_DIG = 0.005  # ... this far below the part's bottom (it rests a little
 FRONT_LIFT = 0.015  # m an object is lifted off its level before it is pulled out
 FRONT_PULL_STEP = 0.02  # m between the poses tried when pulling an object out of a shelf ...
 FRONT_PULL_MAX = 0.4  # ... at most this far
+FRONT_PLACE_RISE = 0.02  # m above the release that an object is slid in over a high shelf from the front ...
+FRONT_PLACE_LEAVE = 0.05  # ... and the hand rises over the release before it leaves
+COVER_SHARE = 0.5  # the share of an object's points under a shelf's board that makes it covered by it
 PAD_HALF_WIDTH = 0.012  # m from the middle of a finger pad to its edge, across the fingers' plane
 # The hand as solid boxes in the TCP frame (z toward the fingertips): half extent along the hand's x, half extent
 # along the closing direction, and the span along z (the open fingers, the knuckles, the body and the wrist).
@@ -1266,14 +1332,19 @@ def covered(env: RoboLabEnv, name: str, boxes: list[tuple[np.ndarray, np.ndarray
 
 def _covers(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
             ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:  # fmt: skip
-    """The fixture boxes over the object of world `points`, less than the hand's length above its top."""
+    """The fixture boxes over the object of world `points` (over at least COVER_SHARE of its points, seen from
+    above: an object beside a shelf that reaches a little under it is not covered), less than the hand's length
+    above its top."""
     low, high = points.min(axis=0), points.max(axis=0)
     reach = -HAND_SOLIDS[-1][2]
     found = []
     for rotation, centre, half in boxes:
         extent = np.abs(rotation) @ half
         box_low, box_high = centre - extent, centre + extent
-        over = np.all(box_low[:2] < high[:2]) and np.all(box_high[:2] > low[:2])
+        local = (points - centre) @ rotation  # in the box's frame: under it where both horizontal axes are inside
+        horizontal = [axis for axis in range(3) if abs(rotation[2, axis]) < 0.5]
+        under = np.all(np.abs(local[:, horizontal]) <= half[horizontal], axis=1)
+        over = under.mean() >= COVER_SHARE
         if over and high[2] <= box_low[2] < high[2] + reach:
             found.append((rotation, centre, half))
     return found
@@ -1293,6 +1364,25 @@ def _open_sides(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np
                 depth = float(centre[:2] @ face + half[axis] - (points[:, :2] @ face).max())
                 sides.append((depth, face))
     return [face for _, face in sorted(sides, key=lambda item: item[0])]
+
+
+def shelf_exit_spot(env: RoboLabEnv, name: str) -> np.ndarray:
+    """Where (x, y) on the table an object taken off a covered shelf level is best put down: outside the shelf on
+    the open side it is pulled out of, and to the side of the level's middle that it stands on, past the level's
+    edge, so that it blocks neither its own way out nor that of anything else on the level."""
+    points = _world_points(env, name)
+    boxes = _fixture_boxes(env)
+    rotation, centre, half = _covers(points, boxes)[0]
+    out = _open_sides(points, boxes)[0]
+    middle = (points.max(axis=0) + points.min(axis=0)) / 2
+    size = points[:, :2].max(axis=0) - points[:, :2].min(axis=0)
+    along = np.array([-out[1], out[0]])  # the open side's direction, horizontal
+    extent = np.abs(rotation[:2]) @ half  # the board's half extents in the world's x and y ...
+    out_reach, side_reach = abs(extent @ np.abs(out)), abs(extent @ np.abs(along))  # ... across and along the side
+    out_room = float((centre[:2] - middle[:2]) @ out) + out_reach + np.abs(size) @ np.abs(out) / 2 + SPOT_MARGIN
+    sign = 1.0 if float((middle[:2] - centre[:2]) @ along) >= 0.0 else -1.0
+    side_room = float((centre[:2] - middle[:2]) @ along) + sign * (side_reach + np.abs(size) @ np.abs(along) / 2)
+    return middle[:2] + out * out_room + along * side_room
 
 
 def _leaning_rotation(closing: np.ndarray, lean: np.ndarray, tilt: float) -> np.ndarray:
