@@ -68,6 +68,8 @@ HAND_MARGIN = 0.004  # m kept between the hand and anything else on the way down
 OBSTACLE_RADIUS = 0.2  # m around a grasp where the tops of other objects are looked at, on a grid ...
 OBSTACLE_CELL = 0.008  # ... of this spacing
 OBSTACLE_CEILING = 0.8  # m: rays looking for objects start this high
+RAY_PASSES = 64  # links of the robot and the object itself a looking ray may pass ...
+RAY_SKIP = 0.005  # ... stepping this far past a robot link it meets
 IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
 WALL_GRASP_DEPTH = 0.02  # m below the rim where the TCP closes on the wall of a standing container too wide to hold
 WALL_GRASP_TURNS = 24  # directions around a standing container tried for a wall grasp
@@ -872,7 +874,7 @@ def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
     down = np.array([0.0, 0.0, -1.0], dtype=np.float32)
     for index, (x, y) in enumerate(cells):
         z = OBSTACLE_CEILING
-        for _ in range(8):  # through the robot and the object itself, down to the first other object
+        for _ in range(RAY_PASSES):  # through the robot and the object itself, down to the first other object
             hit = env.scene.px.raycast(np.array([x, y, z], dtype=np.float32), down, z + 0.05)
             if hit is None:
                 break
@@ -884,13 +886,13 @@ def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
             if other is None and entity not in robot:  # the table or the floor
                 heights[index] = z
                 break
-            z -= 1e-4
+            z -= RAY_SKIP if entity in robot else 1e-4  # out of a robot link (from inside it the ray meets it again)
     return cells, heights, names
 
 
 def free_place(
     env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
-    reachable: Callable[[np.ndarray, np.ndarray], bool],
+    reachable: Callable[[np.ndarray, np.ndarray], bool], first_pass: int = 0,
 ) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
     """A release pose of the TCP, and the pose above it that it is lowered from, that set `name` (held by `grasp`,
     not turned) down on a flat part of `onto` (a bin's floor, a plate) clear of what already lies there: the
@@ -923,7 +925,7 @@ def free_place(
     # rest over whatever is there (a rim), released above all of it
     tool = _tool(env, name, held_points)
     passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (False, True))
-    for with_fingers, whole in passes:
+    for pass_index, (with_fingers, whole) in enumerate(passes[first_pass:], start=first_pass):
         for turn in PLACE_TURNS if tool else PLACE_TURNS[:1]:  # only a long tool turns (a spoon fits as held)
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
             held = held_points @ spin[:2, :2].T
@@ -986,6 +988,8 @@ def free_place(
         for pose in farthest_first:
             if float(np.linalg.norm(pose[:2])) <= edge - PLACE_REACH_MARGIN:
                 return reached(pose) or found
+    if found is None and pass_index + 1 < len(passes):  # none of these in reach: less room (the fingers may touch)
+        return free_place(env, name, onto, grasp, held_bottom, reachable, first_pass=pass_index + 1)
     return found
 
 
