@@ -924,7 +924,7 @@ def free_place(
     # last, for a long object that fits no floor (its middle is what counts as in): its middle over the floor and the
     # rest over whatever is there (a rim), released above all of it
     tool = _tool(env, name, held_points)
-    passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (False, True))
+    passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (None, True), (False, True))
     for pass_index, (with_fingers, whole) in enumerate(passes[first_pass:], start=first_pass):
         for turn in PLACE_TURNS if tool else PLACE_TURNS[:1]:  # only a long tool turns (a spoon fits as held)
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
@@ -936,8 +936,8 @@ def free_place(
                 fingers = np.abs(closing) * OPEN_FINGER_REACH + np.abs(closing[::-1]) * FINGER_HALF_WIDTH
                 foot_low, foot_high = np.minimum(body_low, -fingers), np.maximum(body_high, fingers)
                 margin = PLACE_MARGIN
-            else:
-                foot_low, foot_high, margin = body_low, body_high, 0.0
+            else:  # None: the object with room around, the open fingers perhaps touching a neighbour
+                foot_low, foot_high, margin = body_low, body_high, PLACE_MARGIN if with_fingers is None else 0.0
             centre_offset = (body_low + body_high) / 2
             candidates = cells[flat] - centre_offset  # TCP positions putting the object's middle over a flat cell
             order = np.argsort(np.linalg.norm(candidates + centre_offset - middle, axis=1), kind="stable")
