@@ -43,6 +43,8 @@ PAD_DROP = (0.020, 0.020, 0.019, 0.0173, 0.0153, 0.0127, 0.0096, 0.0061)
 MAX_GRASP_WIDTH = 0.078  # m: the widest part the open fingers (8.6 cm apart) go round with some room
 OPEN_FINGER_GAP = 0.086  # m between the open fingers' pads
 SECTION_STEP = 0.005  # m between the heights at which a part's width is measured
+SNUG_MARGIN = 0.012  # m: a part held this little narrower than the open fingers' gap is still touched by both pads ...
+SLIDE_OFF = 0.012  # ... so after letting go the hand moves this far along the closing direction before it rises
 GRASP_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees from the narrowest closing direction
 MAX_SHIFT_SHARE = 0.3  # a grasp moves along a part by at most this share of its length
 CLASH_COST = 0.1  # m of shift that a metre of neighbour in the hand's way is worth (the hand pushes it aside) ...
@@ -221,6 +223,7 @@ class OraclePolicy(Policy):
         grasp = grasp_pose(env, job.obj)
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
+        snug = _snug(env, job.obj, grasp)
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             spot = free_place(env, job.obj, job.onto, grasp, held_bottom, self._can_lower) if spread else None
@@ -239,7 +242,23 @@ class OraclePolicy(Policy):
         qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
+        if snug:
+            qpos = self._slide_off(qpos, place, job.onto)
         self._move(qpos, above_place, f"retreat from {where}")
+
+    def _slide_off(self, qpos: np.ndarray, place: np.ndarray, onto: str | None) -> np.ndarray:
+        """After letting go of an object as wide as the open fingers (a tuna can), move the hand SLIDE_OFF along
+        the closing direction, towards the middle of `onto`, so one pad pushes the object a little and the other
+        comes off it (lifted straight away, both pads would carry it up); the posture is kept where that cannot be
+        planned."""
+        closing = quat_to_matrix(place[3:])[:, 1]
+        towards = (_centre(self.env, onto)[:2] - place[:2]) if onto is not None else -place[:2]
+        sign = 1.0 if float(closing[:2] @ towards) >= 0.0 else -1.0
+        try:
+            return self._move(qpos, _shifted(place, sign * SLIDE_OFF * closing * np.array([1.0, 1.0, 0.0])),
+                              "slide the fingers off the object")  # fmt: skip
+        except OracleFailure:
+            return qpos
 
     def _sync_fixtures(self) -> None:
         """Give the planner the episode's fixtures (shelves) as boxes, so that inverse kinematics and the planned
@@ -651,6 +670,15 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         if wall is not None:
             return wall
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
+
+
+def _snug(env: RoboLabEnv, name: str, grasp: np.ndarray) -> bool:
+    """Whether the object, at the height of top-down `grasp`, is within SNUG_MARGIN as wide along the closing
+    direction as the open fingers' gap (the opened pads still touch it)."""
+    points = _world_points(env, name)
+    closing = quat_to_matrix(grasp[3:])[:, 1]
+    slab = points[np.abs(points[:, 2] - grasp[2]) < 2 * SECTION_STEP]
+    return len(slab) >= 2 and float(np.ptp(slab @ closing)) > OPEN_FINGER_GAP - SNUG_MARGIN
 
 
 def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
