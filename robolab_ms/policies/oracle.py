@@ -639,6 +639,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     else:
         directions = [np.asarray(closing[:2], dtype=np.float64)]
     heights = _obstacle_heights(env, name, centre[:2])
+    long = _long_object(points)
     best, best_key = None, None
     for turn_rank, direction in enumerate(directions):
         direction = direction / np.linalg.norm(direction)
@@ -658,7 +659,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             cost = abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
             # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
-            snag = fingers > FINGER_SNAG or width > MAX_GRASP_WIDTH
+            snag = not long and (fingers > FINGER_SNAG or width > MAX_GRASP_WIDTH)  # a utensil: across it, as before
             key = (blocked > 0.0, round(blocked, 3), snag, shift != 0.0 or turn_rank > 0, cost)  # others if blocked
             if best_key is None or key < best_key:
                 best, best_key = (xy, z, direction), key
