@@ -44,11 +44,15 @@ PAD_DROP = (0.020, 0.020, 0.019, 0.0173, 0.0153, 0.0127, 0.0096, 0.0061)
 MAX_GRASP_WIDTH = 0.078  # m: the widest part the open fingers (8.6 cm apart) go round with some room
 OPEN_FINGER_GAP = 0.086  # m between the open fingers' pads
 SECTION_STEP = 0.005  # m between the heights at which a part's width is measured
+SNUG_MARGIN = 0.012  # m: a part held this little narrower than the open fingers' gap is still touched by both pads ...
+SLIDE_OFF = 0.012  # ... so after letting go the hand moves this far along the closing direction before it rises
 GRASP_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees from the narrowest closing direction
 MAX_SHIFT_SHARE = 0.3  # a grasp moves along a part by at most this share of its length
 CLASH_COST = 0.1  # m of shift that a metre of neighbour in the hand's way is worth (the hand pushes it aside) ...
 BODY_CLASH_TOLERANCE = 0.08  # ... as long as it rises at most this far into the space of the gripper's body
 FINGER_CLASH_TOLERANCE = 0.03  # ... and at most this far into the space the open fingers sweep
+FINGER_SNAG = 0.005  # m: a neighbour rising this far into the open fingers' space may be pinched with the object,
+# so a grasp whose fingers clear every neighbour (and that fits between them) wins over the untouched one
 WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is worth (a narrow hold is firm) ...
 FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
@@ -67,6 +71,8 @@ HAND_MARGIN = 0.004  # m kept between the hand and anything else on the way down
 OBSTACLE_RADIUS = 0.2  # m around a grasp where the tops of other objects are looked at, on a grid ...
 OBSTACLE_CELL = 0.008  # ... of this spacing
 OBSTACLE_CEILING = 0.8  # m: rays looking for objects start this high
+RAY_PASSES = 64  # links of the robot and the object itself a looking ray may pass ...
+RAY_SKIP = 0.005  # ... stepping this far past a robot link it meets
 IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
 WALL_GRASP_DEPTH = 0.02  # m below the rim where the TCP closes on the wall of a standing container too wide to hold
 WALL_GRASP_TURNS = 24  # directions around a standing container tried for a wall grasp
@@ -243,6 +249,7 @@ class OraclePolicy(Policy):
         grasp = grasp_pose(env, job.obj)
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
+        snug = _snug(env, job.obj, grasp)
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
@@ -269,6 +276,8 @@ class OraclePolicy(Policy):
             return
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
+        if snug:
+            qpos = self._slide_off(qpos, place, job.onto)
         self._move(qpos, above_place, f"retreat from {where}")
 
     def _front_place_way(self, name: str, grasp: np.ndarray, place: np.ndarray) -> np.ndarray | None:
@@ -313,6 +322,20 @@ class OraclePolicy(Policy):
             self._move_straight(qpos, _raised(way, FRONT_PLACE_LEAVE - FRONT_PLACE_RISE), f"retreat from {where}")
         except OracleFailure:
             pass
+
+    def _slide_off(self, qpos: np.ndarray, place: np.ndarray, onto: str | None) -> np.ndarray:
+        """After letting go of an object as wide as the open fingers (a tuna can), move the hand SLIDE_OFF along
+        the closing direction, towards the middle of `onto`, so one pad pushes the object a little and the other
+        comes off it (lifted straight away, both pads would carry it up); the posture is kept where that cannot be
+        planned."""
+        closing = quat_to_matrix(place[3:])[:, 1]
+        towards = (_centre(self.env, onto)[:2] - place[:2]) if onto is not None else -place[:2]
+        sign = 1.0 if float(closing[:2] @ towards) >= 0.0 else -1.0
+        try:
+            return self._move(qpos, _shifted(place, sign * SLIDE_OFF * closing * np.array([1.0, 1.0, 0.0])),
+                              "slide the fingers off the object")  # fmt: skip
+        except OracleFailure:
+            return qpos
 
     def _sync_fixtures(self) -> None:
         """Give the planner the episode's fixtures (shelves) as boxes, so that inverse kinematics and the planned
@@ -711,6 +734,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     else:
         directions = [np.asarray(closing[:2], dtype=np.float64)]
     heights = _obstacle_heights(env, name, centre[:2])
+    long = _long_object(points)
     best, best_key = None, None
     for turn_rank, direction in enumerate(directions):
         direction = direction / np.linalg.norm(direction)
@@ -730,7 +754,8 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             cost = abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
             # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
-            key = (blocked > 0.0, round(blocked, 3), shift != 0.0 or turn_rank > 0, cost)  # others if blocked
+            snag = not long and (fingers > FINGER_SNAG or width > MAX_GRASP_WIDTH)  # a utensil: across it, as before
+            key = (blocked > 0.0, round(blocked, 3), snag, shift != 0.0 or turn_rank > 0, cost)  # others if blocked
             if best_key is None or key < best_key:
                 best, best_key = (xy, z, direction), key
     xy, z, direction = best
@@ -741,6 +766,15 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         if wall is not None:
             return wall
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
+
+
+def _snug(env: RoboLabEnv, name: str, grasp: np.ndarray) -> bool:
+    """Whether the object, at the height of top-down `grasp`, is within SNUG_MARGIN as wide along the closing
+    direction as the open fingers' gap (the opened pads still touch it)."""
+    points = _world_points(env, name)
+    closing = quat_to_matrix(grasp[3:])[:, 1]
+    slab = points[np.abs(points[:, 2] - grasp[2]) < 2 * SECTION_STEP]
+    return len(slab) >= 2 and float(np.ptp(slab @ closing)) > OPEN_FINGER_GAP - SNUG_MARGIN
 
 
 def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
@@ -964,7 +998,7 @@ def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
     down = np.array([0.0, 0.0, -1.0], dtype=np.float32)
     for index, (x, y) in enumerate(cells):
         z = OBSTACLE_CEILING
-        for _ in range(8):  # through the robot and the object itself, down to the first other object
+        for _ in range(RAY_PASSES):  # through the robot and the object itself, down to the first other object
             hit = env.scene.px.raycast(np.array([x, y, z], dtype=np.float32), down, z + 0.05)
             if hit is None:
                 break
@@ -976,13 +1010,13 @@ def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
             if other is None and entity not in robot:  # the table or the floor
                 heights[index] = z
                 break
-            z -= 1e-4
+            z -= RAY_SKIP if entity in robot else 1e-4  # out of a robot link (from inside it the ray meets it again)
     return cells, heights, names
 
 
 def free_place(
     env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
-    reachable: Callable[[np.ndarray, np.ndarray], bool],
+    reachable: Callable[[np.ndarray, np.ndarray], bool], first_pass: int = 0,
 ) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
     """A release pose of the TCP, and the pose above it that it is lowered from, that set `name` (held by `grasp`,
     not turned) down on a flat part of `onto` (a bin's floor, a plate) clear of what already lies there: the
@@ -1014,8 +1048,8 @@ def free_place(
     # last, for a long object that fits no floor (its middle is what counts as in): its middle over the floor and the
     # rest over whatever is there (a rim), released above all of it
     tool = _tool(env, name, held_points)
-    passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (False, True))
-    for with_fingers, whole in passes:
+    passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (None, True), (False, True))
+    for pass_index, (with_fingers, whole) in enumerate(passes[first_pass:], start=first_pass):
         for turn in PLACE_TURNS if tool else PLACE_TURNS[:1]:  # only a long tool turns (a spoon fits as held)
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
             held = held_points @ spin[:2, :2].T
@@ -1026,8 +1060,8 @@ def free_place(
                 fingers = np.abs(closing) * OPEN_FINGER_REACH + np.abs(closing[::-1]) * FINGER_HALF_WIDTH
                 foot_low, foot_high = np.minimum(body_low, -fingers), np.maximum(body_high, fingers)
                 margin = PLACE_MARGIN
-            else:
-                foot_low, foot_high, margin = body_low, body_high, 0.0
+            else:  # None: the object with room around, the open fingers perhaps touching a neighbour
+                foot_low, foot_high, margin = body_low, body_high, PLACE_MARGIN if with_fingers is None else 0.0
             centre_offset = (body_low + body_high) / 2
             candidates = cells[flat] - centre_offset  # TCP positions putting the object's middle over a flat cell
             order = np.argsort(np.linalg.norm(candidates + centre_offset - middle, axis=1), kind="stable")
@@ -1078,6 +1112,8 @@ def free_place(
         for pose in farthest_first:
             if float(np.linalg.norm(pose[:2])) <= edge - PLACE_REACH_MARGIN:
                 return reached(pose) or found
+    if found is None and pass_index + 1 < len(passes):  # none of these in reach: less room (the fingers may touch)
+        return free_place(env, name, onto, grasp, held_bottom, reachable, first_pass=pass_index + 1)
     return found
 
 
