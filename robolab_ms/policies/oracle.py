@@ -41,6 +41,7 @@ FINGERTIP_CLEARANCE = 0.004  # ... but the closed fingertips at least this high 
 PAD_DROP_WIDTHS = (0.0, 0.024, 0.036, 0.047, 0.057, 0.067, 0.077, 0.086)
 PAD_DROP = (0.020, 0.020, 0.019, 0.0173, 0.0153, 0.0127, 0.0096, 0.0061)
 MAX_GRASP_WIDTH = 0.078  # m: the widest part the open fingers (8.6 cm apart) go round with some room
+FIT_TURN_STEP = 3.0  # degrees between the closing directions tried where the narrowest spread does not fit
 OPEN_FINGER_GAP = 0.086  # m between the open fingers' pads
 SECTION_STEP = 0.005  # m between the heights at which a part's width is measured
 GRASP_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees from the narrowest closing direction
@@ -612,6 +613,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         xy = spread[:, :2] - spread[:, :2].mean(axis=0)
         _, vectors = np.linalg.eigh(xy.T @ xy)
         narrowest = vectors[:, 0]  # the direction of least spread: the fingers close along it by preference
+        narrowest = _fitting_direction(spread, narrowest)  # a square box: across its faces, not its diagonal
         directions = [_turned(narrowest, angle) for angle in GRASP_TURNS]
     else:
         directions = [np.asarray(closing[:2], dtype=np.float64)]
@@ -646,6 +648,20 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         if wall is not None:
             return wall
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
+
+
+def _fitting_direction(points: np.ndarray, narrowest: np.ndarray) -> np.ndarray:
+    """`narrowest` (a horizontal unit vector) where the object of world `points` fits between the open fingers
+    closing along it; else the horizontal direction across which it is narrowest, found by turning in
+    FIT_TURN_STEP steps, if it fits there (a square carton yawed so that its spread has no clear narrowest axis)."""
+    xy = points[:, :2]
+    if float(np.ptp(xy @ narrowest)) <= MAX_GRASP_WIDTH:
+        return narrowest
+    angles = np.radians(np.arange(0.0, 180.0, FIT_TURN_STEP))
+    candidates = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    widths = np.ptp(xy @ candidates.T, axis=0)
+    best = int(widths.argmin())
+    return candidates[best] if widths[best] <= MAX_GRASP_WIDTH else narrowest
 
 
 def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
