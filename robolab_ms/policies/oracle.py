@@ -82,6 +82,8 @@ PIVOT_STEPS = 6  # straight moves that tip a lying container up about its base
 TRAVEL_RADIUS = 0.15  # m: objects this near (horizontally) a pose above a grasp or a place point ...
 TRAVEL_CLEARANCE = 0.04  # ... are passed this high above, by the fingertips or the held object
 FINGERTIP_BELOW_TCP = 0.01  # m the fingertips reach below the TCP
+PASS_RADIUS = 0.08  # m (horizontally) from the hand's way to a grasp within which objects must be passed above ...
+PASS_SAMPLES = 25  # ... checked at this many points along the way
 PANDA_ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 FLANGE_LINK = "panda_link8"
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
@@ -224,7 +226,7 @@ class OraclePolicy(Policy):
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         above_grasp = _above(env, grasp, APPROACH_HEIGHT, hanging=0.0)
-        qpos = self._move(qpos, above_grasp, f"reach above '{job.obj}'", straight=False)
+        qpos = self._reach_over(qpos, above_grasp, job.obj)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
         if job.onto is None and job.at is None:
@@ -237,6 +239,25 @@ class OraclePolicy(Policy):
         qpos = self._move(qpos, place, f"lower '{job.obj}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
         self._move(qpos, above_place, f"retreat from {where}")
+
+    def _reach_over(self, qpos: np.ndarray, above_grasp: np.ndarray, name: str) -> np.ndarray:
+        """Queue the move from posture `qpos` to `above_grasp` (over object `name`); where something tall (a
+        crate's wall) rises near the straight way there above it, the hand first goes over the grasp at a height
+        that passes above everything on the way, then straight down. Returns the final joints."""
+        what = f"reach above '{name}'"
+        model, planner = self._planner.pinocchio_model, self._planner
+        model.compute_forward_kinematics(qpos)
+        flange = np.asarray(model.get_link_pose(planner.link_name_2_idx[FLANGE_LINK]))
+        import sapien
+
+        start = (sapien.Pose(p=flange[:3], q=flange[3:]) * self._tcp_in_flange).p
+        height = _pass_height(self.env, np.asarray(start, dtype=np.float64), above_grasp[:3], name)
+        if height is None:
+            return self._move(qpos, above_grasp, what, straight=False)
+        transit = above_grasp.copy()
+        transit[2] = height
+        qpos = self._move(qpos, transit, what, straight=False)
+        return self._move(qpos, above_grasp, f"come down over '{name}'")
 
     def _sync_fixtures(self) -> None:
         """Give the planner the episode's fixtures (shelves) as boxes, so that inverse kinematics and the planned
@@ -972,12 +993,22 @@ def free_place(
     if not free:
         return None
 
+    clearing = [True, False]  # first only ways in over the rim of `onto`, then the lowest way in as well
+
     def reached(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        for over in _over_place(env, pose, held_bottom, name, onto):
+        overs = _over_place(env, pose, held_bottom, name, onto)
+        for over in overs[:-1] if clearing[0] and len(overs) > 1 else overs:
             if reachable(over, pose):
                 return pose, over
         return None
 
+    found = reached(free[0])
+    if found is not None:
+        return found
+    found = _reached_over_rim(free, reached)  # a spot nearer the robot that the held object reaches over the rim
+    if found is not None:
+        return found
+    clearing[0] = False
     found = reached(free[0])
     if found is not None:
         return found
@@ -999,6 +1030,27 @@ def free_place(
         for pose in farthest_first:
             if float(np.linalg.norm(pose[:2])) <= edge - PLACE_REACH_MARGIN:
                 return reached(pose) or found
+    return found
+
+
+def _reached_over_rim(free: list[np.ndarray], reached: Callable[[np.ndarray], tuple | None],
+                      ) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    """Of the release poses `free`, the one farthest from the robot that `reached` finds a way in to, tried from
+    the nearest to the robot outwards in PLACE_REACH_TRIES steps (a binary search: reach falls off with distance);
+    None where none is reached."""
+    nearest_first = sorted(free, key=lambda pose: float(np.linalg.norm(pose[:2])))
+    if reached(nearest_first[0]) is None:
+        return None
+    found, low, high = reached(nearest_first[0]), 1, len(nearest_first) - 1
+    for _ in range(PLACE_REACH_TRIES):
+        if low > high:
+            break
+        index = (low + high) // 2
+        attempt = reached(nearest_first[index])
+        if attempt is not None:
+            found, low = attempt, index + 1
+        else:
+            high = index - 1
     return found
 
 
@@ -1110,7 +1162,36 @@ def _over_place(env: RoboLabEnv, place: np.ndarray, held_bottom: float, held: st
         return [low]
     high = low.copy()
     high[2] = max(low[2], _world_points(env, onto)[:, 2].max() + RELEASE_CLEARANCE + held_bottom + APPROACH_HEIGHT)
-    return [high, low] if high[2] > low[2] + 1e-3 else [low]
+    if high[2] <= low[2] + 1e-3:
+        return [low]
+    # where that is out of reach: the held object's bottom just over the top of `onto` (a tall crate's walls, which
+    # `_above` may not see where the crate has only its corners as points), before the lowest way in
+    rim = low.copy()
+    rim[2] = high[2] - APPROACH_HEIGHT + RELEASE_CLEARANCE
+    return [high, rim, low] if rim[2] > low[2] + 1e-3 else [high, low]
+
+
+def _pass_height(env: RoboLabEnv, start: np.ndarray, end: np.ndarray, name: str) -> float | None:
+    """A TCP height from which the fingertips pass TRAVEL_CLEARANCE above every object but `name` near the
+    straight way from TCP position `start` to `end` (within PASS_RADIUS of it, horizontally); None where that way
+    itself clears them all (the height is then not needed)."""
+    fractions = np.linspace(0.0, 1.0, PASS_SAMPLES)
+    way = start[None, :] + fractions[:, None] * (end - start)[None, :]
+    need, highest = -np.inf, -np.inf
+    for other in env.objects:
+        if other == name:
+            continue
+        points = _world_points(env, other)
+        distance = np.linalg.norm(points[None, :, :2] - way[:, None, :2], axis=2)  # (samples, points)
+        near = distance < PASS_RADIUS
+        if not near.any():
+            continue
+        tops = np.where(near, points[None, :, 2], -np.inf).max(axis=1) + TRAVEL_CLEARANCE + FINGERTIP_BELOW_TCP
+        need = max(need, float((tops - way[:, 2]).max()))
+        highest = max(highest, float(tops.max()))
+    if need <= 0.0:
+        return None
+    return max(highest, float(end[2]))
 
 
 def _raised(pose: np.ndarray, height: float) -> np.ndarray:
