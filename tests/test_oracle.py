@@ -167,3 +167,23 @@ def test_a_grasp_above_a_flat_part_is_not_too_wide():
     spoon = np.array([[0.0, 0.0, 0.0], [0.15, 0.03, 0.0], [0.0, 0.03, 0.012], [0.15, 0.0, 0.012]])
     assert not _too_wide(spoon, np.array([0.0, 1.0]), z=0.03)
     assert _too_wide(spoon, np.array([1.0, 0.0]), z=0.005)  # along its 15-cm length
+
+
+def test_a_square_box_turned_diagonally_is_closed_on_across_its_faces():
+    """A square carton yawed 45 degrees spreads evenly in every direction, so its spread has no narrowest axis;
+    closing across its diagonal (9.9 cm) would not fit the open fingers: the fingers close across its faces."""
+    import numpy as np
+
+    from robolab_ms.policies.oracle import MAX_GRASP_WIDTH, _fitting_direction
+
+    half, turn = 0.035, np.radians(45.0)
+    corners = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (0.0, 0.2)])
+    rotation = np.array([[np.cos(turn), -np.sin(turn), 0.0], [np.sin(turn), np.cos(turn), 0.0], [0.0, 0.0, 1.0]])
+    carton = corners @ rotation.T
+    diagonal = np.array([1.0, 0.0])
+    assert np.ptp(carton[:, :2] @ diagonal) > MAX_GRASP_WIDTH
+    chosen = _fitting_direction(carton, diagonal)
+    assert np.ptp(carton[:, :2] @ chosen) == pytest.approx(2 * half, abs=0.002)
+    narrow = np.array([0.0, 0.02, 0.0])  # a part that fits as it is keeps its direction
+    assert np.array_equal(_fitting_direction(corners[:, :] * [1.0, 0.2, 1.0] + narrow, np.array([0.0, 1.0])),
+                          np.array([0.0, 1.0]))
