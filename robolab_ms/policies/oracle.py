@@ -625,7 +625,12 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
                                                                             mass_centre):  # fmt: skip
             centre, part_only = np.array([mass_centre[0], mass_centre[1], centre[2]]), False
     if part_only:  # the middle is empty: grasp the part of the object nearest to it
-        nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
+        mapped = _footprint_points(env, name, points)  # a primitive's corners may all lie far from that part
+        if mapped is not None and len(mapped) >= MIN_SLAB_POINTS:
+            nearest = mapped[np.linalg.norm(mapped[:, :2] - centre[:2], axis=1).argmin()]
+            points = np.concatenate([points, mapped])
+        else:
+            nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
         points = points[np.linalg.norm(points[:, :2] - nearest[:2], axis=1) < PART_RADIUS]
         centre = np.array([nearest[0], nearest[1], (points[:, 2].max() + points[:, 2].min()) / 2])
     footprint = _footprint_points(env, name, points) if tool and not part_only else None  # a tool's top, mapped
