@@ -227,3 +227,23 @@ def test_shelf_cover_and_the_spot_beside_the_shelf():
                     assert x < low[0] or not (low[1] < y < high[1]), job  # never behind or on the rack
         finally:
             env.close()
+
+
+def test_a_square_box_turned_diagonally_is_closed_on_across_its_faces():
+    """A square carton yawed 45 degrees spreads evenly in every direction, so its spread has no narrowest axis;
+    closing across its diagonal (9.9 cm) would not fit the open fingers: the fingers close across its faces."""
+    import numpy as np
+
+    from robolab_ms.policies.oracle import MAX_GRASP_WIDTH, _fitting_direction
+
+    half, turn = 0.035, np.radians(45.0)
+    corners = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (0.0, 0.2)])
+    rotation = np.array([[np.cos(turn), -np.sin(turn), 0.0], [np.sin(turn), np.cos(turn), 0.0], [0.0, 0.0, 1.0]])
+    carton = corners @ rotation.T
+    diagonal = np.array([1.0, 0.0])
+    assert np.ptp(carton[:, :2] @ diagonal) > MAX_GRASP_WIDTH
+    chosen = _fitting_direction(carton, diagonal)
+    assert np.ptp(carton[:, :2] @ chosen) == pytest.approx(2 * half, abs=0.002)
+    narrow = np.array([0.0, 0.02, 0.0])  # a part that fits as it is keeps its direction
+    assert np.array_equal(_fitting_direction(corners[:, :] * [1.0, 0.2, 1.0] + narrow, np.array([0.0, 1.0])),
+                          np.array([0.0, 1.0]))

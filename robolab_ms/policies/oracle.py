@@ -42,6 +42,7 @@ FINGERTIP_CLEARANCE = 0.004  # ... but the closed fingertips at least this high 
 PAD_DROP_WIDTHS = (0.0, 0.024, 0.036, 0.047, 0.057, 0.067, 0.077, 0.086)
 PAD_DROP = (0.020, 0.020, 0.019, 0.0173, 0.0153, 0.0127, 0.0096, 0.0061)
 MAX_GRASP_WIDTH = 0.078  # m: the widest part the open fingers (8.6 cm apart) go round with some room
+FIT_TURN_STEP = 3.0  # degrees between the closing directions tried where the narrowest spread does not fit
 OPEN_FINGER_GAP = 0.086  # m between the open fingers' pads
 SECTION_STEP = 0.005  # m between the heights at which a part's width is measured
 SNUG_MARGIN = 0.012  # m: a part held this little narrower than the open fingers' gap is still touched by both pads ...
@@ -88,6 +89,8 @@ PIVOT_STEPS = 6  # straight moves that tip a lying container up about its base
 TRAVEL_RADIUS = 0.15  # m: objects this near (horizontally) a pose above a grasp or a place point ...
 TRAVEL_CLEARANCE = 0.04  # ... are passed this high above, by the fingertips or the held object
 FINGERTIP_BELOW_TCP = 0.01  # m the fingertips reach below the TCP
+PASS_RADIUS = 0.08  # m (horizontally) from the hand's way to a grasp within which objects must be passed above ...
+PASS_SAMPLES = 25  # ... checked at this many points along the way
 PANDA_ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
 FLANGE_LINK = "panda_link8"
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
@@ -257,7 +260,7 @@ class OraclePolicy(Policy):
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         above_grasp = _above(env, grasp, APPROACH_HEIGHT, hanging=0.0)
-        qpos = self._move(qpos, above_grasp, f"reach above '{job.obj}'", straight=False)
+        qpos = self._reach_over(qpos, above_grasp, job.obj)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
         if job.onto is None and job.at is None:
@@ -336,6 +339,25 @@ class OraclePolicy(Policy):
                               "slide the fingers off the object")  # fmt: skip
         except OracleFailure:
             return qpos
+
+    def _reach_over(self, qpos: np.ndarray, above_grasp: np.ndarray, name: str) -> np.ndarray:
+        """Queue the move from posture `qpos` to `above_grasp` (over object `name`); where something tall (a
+        crate's wall) rises near the straight way there above it, the hand first goes over the grasp at a height
+        that passes above everything on the way, then straight down. Returns the final joints."""
+        what = f"reach above '{name}'"
+        model, planner = self._planner.pinocchio_model, self._planner
+        model.compute_forward_kinematics(qpos)
+        flange = np.asarray(model.get_link_pose(planner.link_name_2_idx[FLANGE_LINK]))
+        import sapien
+
+        start = (sapien.Pose(p=flange[:3], q=flange[3:]) * self._tcp_in_flange).p
+        height = _pass_height(self.env, np.asarray(start, dtype=np.float64), above_grasp[:3], name)
+        if height is None:
+            return self._move(qpos, above_grasp, what, straight=False)
+        transit = above_grasp.copy()
+        transit[2] = height
+        qpos = self._move(qpos, transit, what, straight=False)
+        return self._move(qpos, above_grasp, f"come down over '{name}'")
 
     def _sync_fixtures(self) -> None:
         """Give the planner the episode's fixtures (shelves) as boxes, so that inverse kinematics and the planned
@@ -721,7 +743,12 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
                                                                             mass_centre):  # fmt: skip
             centre, part_only = np.array([mass_centre[0], mass_centre[1], centre[2]]), False
     if part_only:  # the middle is empty: grasp the part of the object nearest to it
-        nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
+        mapped = _footprint_points(env, name, points)  # a primitive's corners may all lie far from that part
+        if mapped is not None and len(mapped) >= MIN_SLAB_POINTS:
+            nearest = mapped[np.linalg.norm(mapped[:, :2] - centre[:2], axis=1).argmin()]
+            points = np.concatenate([points, mapped])
+        else:
+            nearest = points[np.linalg.norm(points[:, :2] - centre[:2], axis=1).argmin()]
         points = points[np.linalg.norm(points[:, :2] - nearest[:2], axis=1) < PART_RADIUS]
         centre = np.array([nearest[0], nearest[1], (points[:, 2].max() + points[:, 2].min()) / 2])
     footprint = _footprint_points(env, name, points) if tool and not part_only else None  # a tool's top, mapped
@@ -730,6 +757,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         xy = spread[:, :2] - spread[:, :2].mean(axis=0)
         _, vectors = np.linalg.eigh(xy.T @ xy)
         narrowest = vectors[:, 0]  # the direction of least spread: the fingers close along it by preference
+        narrowest = _fitting_direction(spread, narrowest)  # a square box: across its faces, not its diagonal
         directions = [_turned(narrowest, angle) for angle in GRASP_TURNS]
     else:
         directions = [np.asarray(closing[:2], dtype=np.float64)]
@@ -775,6 +803,20 @@ def _snug(env: RoboLabEnv, name: str, grasp: np.ndarray) -> bool:
     closing = quat_to_matrix(grasp[3:])[:, 1]
     slab = points[np.abs(points[:, 2] - grasp[2]) < 2 * SECTION_STEP]
     return len(slab) >= 2 and float(np.ptp(slab @ closing)) > OPEN_FINGER_GAP - SNUG_MARGIN
+
+
+def _fitting_direction(points: np.ndarray, narrowest: np.ndarray) -> np.ndarray:
+    """`narrowest` (a horizontal unit vector) where the object of world `points` fits between the open fingers
+    closing along it; else the horizontal direction across which it is narrowest, found by turning in
+    FIT_TURN_STEP steps, if it fits there (a square carton yawed so that its spread has no clear narrowest axis)."""
+    xy = points[:, :2]
+    if float(np.ptp(xy @ narrowest)) <= MAX_GRASP_WIDTH:
+        return narrowest
+    angles = np.radians(np.arange(0.0, 180.0, FIT_TURN_STEP))
+    candidates = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    widths = np.ptp(xy @ candidates.T, axis=0)
+    best = int(widths.argmin())
+    return candidates[best] if widths[best] <= MAX_GRASP_WIDTH else narrowest
 
 
 def _mass_centre(env: RoboLabEnv, name: str) -> np.ndarray:
@@ -1085,12 +1127,22 @@ def free_place(
     if not free:
         return None
 
+    clearing = [True, False]  # first only ways in over the rim of `onto`, then the lowest way in as well
+
     def reached(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        for over in _over_place(env, pose, held_bottom, name, onto):
+        overs = _over_place(env, pose, held_bottom, name, onto)
+        for over in overs[:-1] if clearing[0] and len(overs) > 1 else overs:
             if reachable(over, pose):
                 return pose, over
         return None
 
+    found = reached(free[0])
+    if found is not None:
+        return found
+    found = _reached_over_rim(free, reached)  # a spot nearer the robot that the held object reaches over the rim
+    if found is not None:
+        return found
+    clearing[0] = False
     found = reached(free[0])
     if found is not None:
         return found
@@ -1114,6 +1166,27 @@ def free_place(
                 return reached(pose) or found
     if found is None and pass_index + 1 < len(passes):  # none of these in reach: less room (the fingers may touch)
         return free_place(env, name, onto, grasp, held_bottom, reachable, first_pass=pass_index + 1)
+    return found
+
+
+def _reached_over_rim(free: list[np.ndarray], reached: Callable[[np.ndarray], tuple | None],
+                      ) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    """Of the release poses `free`, the one farthest from the robot that `reached` finds a way in to, tried from
+    the nearest to the robot outwards in PLACE_REACH_TRIES steps (a binary search: reach falls off with distance);
+    None where none is reached."""
+    nearest_first = sorted(free, key=lambda pose: float(np.linalg.norm(pose[:2])))
+    if reached(nearest_first[0]) is None:
+        return None
+    found, low, high = reached(nearest_first[0]), 1, len(nearest_first) - 1
+    for _ in range(PLACE_REACH_TRIES):
+        if low > high:
+            break
+        index = (low + high) // 2
+        attempt = reached(nearest_first[index])
+        if attempt is not None:
+            found, low = attempt, index + 1
+        else:
+            high = index - 1
     return found
 
 
@@ -1225,7 +1298,36 @@ def _over_place(env: RoboLabEnv, place: np.ndarray, held_bottom: float, held: st
         return [low]
     high = low.copy()
     high[2] = max(low[2], _world_points(env, onto)[:, 2].max() + RELEASE_CLEARANCE + held_bottom + APPROACH_HEIGHT)
-    return [high, low] if high[2] > low[2] + 1e-3 else [low]
+    if high[2] <= low[2] + 1e-3:
+        return [low]
+    # where that is out of reach: the held object's bottom just over the top of `onto` (a tall crate's walls, which
+    # `_above` may not see where the crate has only its corners as points), before the lowest way in
+    rim = low.copy()
+    rim[2] = high[2] - APPROACH_HEIGHT + RELEASE_CLEARANCE
+    return [high, rim, low] if rim[2] > low[2] + 1e-3 else [high, low]
+
+
+def _pass_height(env: RoboLabEnv, start: np.ndarray, end: np.ndarray, name: str) -> float | None:
+    """A TCP height from which the fingertips pass TRAVEL_CLEARANCE above every object but `name` near the
+    straight way from TCP position `start` to `end` (within PASS_RADIUS of it, horizontally); None where that way
+    itself clears them all (the height is then not needed)."""
+    fractions = np.linspace(0.0, 1.0, PASS_SAMPLES)
+    way = start[None, :] + fractions[:, None] * (end - start)[None, :]
+    need, highest = -np.inf, -np.inf
+    for other in env.objects:
+        if other == name:
+            continue
+        points = _world_points(env, other)
+        distance = np.linalg.norm(points[None, :, :2] - way[:, None, :2], axis=2)  # (samples, points)
+        near = distance < PASS_RADIUS
+        if not near.any():
+            continue
+        tops = np.where(near, points[None, :, 2], -np.inf).max(axis=1) + TRAVEL_CLEARANCE + FINGERTIP_BELOW_TCP
+        need = max(need, float((tops - way[:, 2]).max()))
+        highest = max(highest, float(tops.max()))
+    if need <= 0.0:
+        return None
+    return max(highest, float(end[2]))
 
 
 def _raised(pose: np.ndarray, height: float) -> np.ndarray:
