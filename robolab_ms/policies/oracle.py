@@ -23,7 +23,7 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
-from robolab_ms.policies.oracle_overhang import STEP_LIFT, side_step, side_step_path
+from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
@@ -229,6 +229,7 @@ class OraclePolicy(Policy):
         if sideways is not None:
             qpos = self._move(qpos, sideways[0], f"descend beside '{job.obj}'")
             qpos = self._move(qpos, sideways[1], f"move in over '{job.obj}'")
+            self._hold(qpos, 0.0, STEP_SETTLE_STEPS)  # the pads go down millimetres from the object's edges
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
         if job.onto is None and job.at is None and sideways is None:

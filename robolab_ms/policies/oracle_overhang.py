@@ -27,6 +27,7 @@ UNDERSIDE_START = 0.001  # m above the table where the rays that find undersides
 # Under an overhang the gripper's body and the coupling to the arm (3.8 cm in radius) are in the way within this far of
 # the TCP (the planner's grasp search keeps a wider, 6 cm box clear for the wrist)
 WRIST_HALF = 0.045
+STEP_SETTLE_STEPS = 12  # control steps held after moving in, for the arm to catch up before the last descent
 STEP_LIFT = 0.01  # m the held object is raised off the table before the hand moves back out sideways
 
 
