@@ -23,6 +23,7 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 
 if TYPE_CHECKING:
@@ -656,6 +657,9 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     xy, z, direction = best
     # a wall grasp needs ray casts, which the oracle does only on the CPU simulator (where `heights` exist)
     wide = closing is None and heights is not None and _too_wide(points, direction, z)
+    handle = handle_grasp(env, name, heights) if wide and not tool else None  # a light cup by its long handle
+    if handle is not None:
+        return handle
     if wide and _standing_container(env, name):
         wall = wall_grasp(env, name, heights)
         if wall is not None:
