@@ -1,5 +1,5 @@
-"""The oracle's handle grasp: a light container too wide for the open fingers that has a long handle (a measuring
-cup, a small pan) is held by the handle's outer end, the fingers closing across it from above.
+"""The oracle's handle grasp: a light standing container too wide for the open fingers that has a long handle (a
+measuring cup, a small pan) is held by the handle's outer end, the fingers closing across it from above.
 
 A wall grasp (one finger in the vessel, one outside) touches the wall with one pad first; a light vessel that
 leans in a bowl is pushed over by it before the other pad arrives. Around a narrow handle both pads come down
