@@ -657,7 +657,7 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     xy, z, direction = best
     # a wall grasp needs ray casts, which the oracle does only on the CPU simulator (where `heights` exist)
     wide = closing is None and heights is not None and _too_wide(points, direction, z)
-    standing = wide and not tool and _standing_container(env, name)
+    standing = closing is None and heights is not None and not tool and _standing_container(env, name)
     handle = handle_grasp(env, name, heights) if standing else None  # a light cup by its long handle
     if handle is not None:
         return handle
