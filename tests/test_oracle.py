@@ -2,6 +2,10 @@
 and BananasOutOfBin, a mug held by its wall, fixture scenes for stacking, standing a block up and standing a lying
 mug up, a lying jug stood up by its neck and a stack taken apart from the top."""
 
+
+and BananasOutOfBin, a mug held by its wall, a phone reached under an overhang, a
+measuring cup held by its handle, and fixture scenes for stacking, standing a block up and standing a lying mug up."""
+
 import pytest
 from helpers import put
 
@@ -247,3 +251,38 @@ def test_a_square_box_turned_diagonally_is_closed_on_across_its_faces():
     narrow = np.array([0.0, 0.02, 0.0])  # a part that fits as it is keeps its direction
     assert np.array_equal(_fitting_direction(corners[:, :] * [1.0, 0.2, 1.0] + narrow, np.array([0.0, 1.0])),
                           np.array([0.0, 1.0]))
+
+
+def test_oracle_comes_in_under_an_overhang_and_holds_a_cup_by_its_handle(tmp_path):
+    """Beside the keyboard that leans over the bin's rim, the phone is held across its short side at its middle,
+    the hand stepping in sideways under the keyboard; the measuring cup leaning in the bowl is held by its handle's
+    outer end, beyond the cup's rim. Both episodes succeed."""
+    import gymnasium as gym
+    import numpy as np
+
+    from robolab_ms.policies.oracle import _world_points, grasp_pose
+    from robolab_ms.policies.oracle_overhang import side_step_path
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("SmartphoneInBin").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=2)
+        points = _world_points(env.unwrapped, "smartphone")
+        centre = (points.max(axis=0) + points.min(axis=0)) / 2
+        grasp = grasp_pose(env.unwrapped, "smartphone")
+        assert np.linalg.norm(grasp[:2] - centre[:2]) < 0.005
+        assert side_step_path(env.unwrapped, "smartphone", grasp) is not None
+    finally:
+        env.close()
+    env = gym.make(load_task("TakeMeasuringSpoonOut").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=0)
+        points = _world_points(env.unwrapped, "measuring_cup")
+        centre = (points.max(axis=0) + points.min(axis=0)) / 2
+        grasp = grasp_pose(env.unwrapped, "measuring_cup")
+        assert np.linalg.norm(grasp[:2] - centre[:2]) > 0.05  # out on the handle, not at the cup's wall
+    finally:
+        env.close()
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("SmartphoneInBin", "TakeMeasuringSpoonOut"),
+                             episodes=1, first_seed=2), tmp_path, show_progress=False)  # fmt: skip
+    assert [r.error for r in results] == [None, None] and all(r.success for r in results)

@@ -23,6 +23,8 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle_handle import handle_grasp
+from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 
 if TYPE_CHECKING:
@@ -259,14 +261,26 @@ class OraclePolicy(Policy):
             spot = free_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
-        above_grasp = _above(env, grasp, APPROACH_HEIGHT, hanging=0.0)
+        sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
+        above_grasp = _above(env, grasp if sideways is None else sideways[0], APPROACH_HEIGHT, hanging=0.0)
         qpos = self._reach_over(qpos, above_grasp, job.obj)
+        if sideways is not None:
+            qpos = self._move(qpos, sideways[0], f"descend beside '{job.obj}'")
+            qpos = self._move(qpos, sideways[1], f"move in over '{job.obj}'")
+            self._hold(qpos, 0.0, STEP_SETTLE_STEPS)  # the pads go down millimetres from the object's edges
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
-        if job.onto is None and job.at is None:
+        if job.onto is None and job.at is None and sideways is None:
             self._move(qpos, _raised(grasp, job.lift), f"lift '{job.obj}'")
             return
         lifted = _above(env, grasp, LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
+        if sideways is not None:  # back out from under the overhang, then up
+            qpos = self._move(qpos, _raised(sideways[1], STEP_LIFT), f"raise '{job.obj}' off the table")
+            qpos = self._move(qpos, _raised(sideways[0], STEP_LIFT), f"move '{job.obj}' out from under the overhang")
+            if job.onto is None and job.at is None:
+                self._move(qpos, _raised(sideways[0], STEP_LIFT + job.lift), f"lift '{job.obj}'")
+                return
+            lifted = _above(env, _raised(sideways[0], STEP_LIFT), LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
         qpos = self._move(qpos, lifted, f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
         try:
@@ -779,6 +793,8 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
                 slab = points
             z, width = _grasp_height(slab, direction, bottom)
             fingers, body = _hand_clash(heights, xy, direction, z)
+            if fingers > FINGER_CLASH_TOLERANCE and side_step(env, name, xy, direction, z, heights) is not None:
+                fingers = 0.0  # an overhang the hand comes in under from the side (oracle_overhang)
             cost = abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
             # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
@@ -789,6 +805,10 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     xy, z, direction = best
     # a wall grasp needs ray casts, which the oracle does only on the CPU simulator (where `heights` exist)
     wide = closing is None and heights is not None and _too_wide(points, direction, z)
+    standing = closing is None and heights is not None and not tool and _standing_container(env, name)
+    handle = handle_grasp(env, name, heights) if standing else None  # a light cup by its long handle
+    if handle is not None:
+        return handle
     if wide and _standing_container(env, name):
         wall = wall_grasp(env, name, heights)
         if wall is not None:
