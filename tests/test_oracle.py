@@ -261,25 +261,23 @@ def test_oracle_comes_in_under_an_overhang_and_holds_a_cup_by_its_handle(tmp_pat
     from robolab_ms.policies.oracle_overhang import side_step_path
     from robolab_ms.tasks.spec import load_task
 
-    env = gym.make(load_task("SmartphoneInBin").env_id, obs_mode="state_dict")
-    try:
-        env.reset(seed=2)
-        points = _world_points(env.unwrapped, "smartphone")
-        centre = (points.max(axis=0) + points.min(axis=0)) / 2
-        grasp = grasp_pose(env.unwrapped, "smartphone")
-        assert np.linalg.norm(grasp[:2] - centre[:2]) < 0.005
-        assert side_step_path(env.unwrapped, "smartphone", grasp) is not None
-    finally:
-        env.close()
-    env = gym.make(load_task("TakeMeasuringSpoonOut").env_id, obs_mode="state_dict")
-    try:
-        env.reset(seed=0)
-        points = _world_points(env.unwrapped, "measuring_cup")
-        centre = (points.max(axis=0) + points.min(axis=0)) / 2
-        grasp = grasp_pose(env.unwrapped, "measuring_cup")
-        assert np.linalg.norm(grasp[:2] - centre[:2]) > 0.05  # out on the handle, not at the cup's wall
-    finally:
-        env.close()
+    def grasp_off_middle(task: str, seed: int, name: str) -> tuple[float, bool]:
+        """How far the oracle's grasp of `name` lies from the middle of its bounding box (m), and whether the hand
+        steps in under an overhang to reach it."""
+        env = gym.make(load_task(task).env_id, obs_mode="state_dict")
+        try:
+            env.reset(seed=seed)
+            points = _world_points(env.unwrapped, name)
+            centre = (points.max(axis=0) + points.min(axis=0)) / 2
+            grasp = grasp_pose(env.unwrapped, name)
+            return float(np.linalg.norm(grasp[:2] - centre[:2])), side_step_path(env.unwrapped, name, grasp) is not None
+        finally:
+            env.close()
+
+    off_middle, stepping_in = grasp_off_middle("SmartphoneInBin", 2, "smartphone")
+    assert off_middle < 0.005 and stepping_in
+    off_middle, _ = grasp_off_middle("TakeMeasuringSpoonOut", 0, "measuring_cup")
+    assert off_middle > 0.05  # out on the handle, not at the cup's wall
     results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("SmartphoneInBin", "TakeMeasuringSpoonOut"),
                              episodes=1, first_seed=2), tmp_path, show_progress=False)  # fmt: skip
     assert [r.error for r in results] == [None, None] and all(r.success for r in results)
