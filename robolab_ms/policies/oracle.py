@@ -6,8 +6,9 @@ centimetre apart, mplib's screw motion at the edge of the workspace, RRT-Connect
 grasps top-down where the hand clears the neighbours (from a grid of ray casts), sets objects down on a free flat
 spot of a bin's floor or a plate within reach (another grid of ray casts) and replays the plan as the same 8-D
 DROID actions a learned policy sends: 7 absolute joint targets and the gripper (0 open, 1 closed) at the control
-rate. It plans one move at a time from the state it finds, so a slipped grasp is noticed at the next move. When it
-cannot go on it raises OracleFailure saying why.
+rate. It plans one job (one object) at a time from the state it finds; when a job is over it checks the task's
+condition for that object, and a job that did not get there (the object slipped, tipped or was never held) is planned
+again from the new state, up to JOB_RETRIES times. When it cannot go on it raises OracleFailure saying why.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
+from robolab_ms.tasks.predicates import PREDICATES, per_object
 
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
@@ -100,6 +102,8 @@ PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
 JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-collision along a joint path
 STRAIGHT_STEP = 0.01  # m between the waypoints of a straight move, each solved by inverse kinematics ...
 STRAIGHT_TURN = 0.05  # ... or rad of turn between them
+JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
+JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
 MAX_JOINT_JUMP = 0.25  # rad a joint may change between two waypoints of a straight move (more: a flip, not a line)
 
 
@@ -184,6 +188,16 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
     raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
 
 
+def job_done(env: RoboLabEnv, job: Job) -> bool:
+    """Whether the task's first success condition holds for the job's object now. True for conditions that
+    hold only for all their objects together (a stack, an order of placing) and for objects they do not name."""
+    condition = env.task_spec.success[0]
+    if PREDICATES[condition.predicate].group or job.obj not in condition.objects:
+        return True
+    holds = per_object(env.eval_context, condition)
+    return bool(holds[0, list(condition.objects).index(job.obj)])
+
+
 def _top_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
     """`objects` in their order, except that one resting on another of them (its bottom within a centimetre of the
     other's top, their footprints overlapping) comes before it."""
@@ -234,13 +248,55 @@ class OraclePolicy(Policy):
         self.jobs = deque(jobs_for(self.env))
         self.actions.clear()
         self.gripper = 0.0
+        self._job: Job | None = None  # the job whose actions are being replayed
+        self._job_settled = False  # whether the hand has held still once after it, before the second check
+        self._retries: dict[str, int] = {}  # per object: jobs planned again
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
         while not self.actions:
+            if self._job is not None and self._check_job():
+                continue  # the hand holds still a moment before the job is checked again
             if not self.jobs:  # everything done: hold still with the gripper open
                 return self._action(self._planner_qpos(), 0.0)
-            self._plan_job(self.jobs.popleft())
+            job = self.jobs.popleft()
+            try:
+                self._plan_job(job)
+            except OracleFailure:
+                self.actions.clear()  # a plan that failed half-way leaves nothing to replay
+                if not self._retry(job, last=False):
+                    raise
+                continue
+            self._job, self._job_settled = job, False
         return self.actions.popleft()
+
+    def _check_job(self) -> bool:
+        """After a job's actions: whether its object satisfies the task's condition; if not, hold still once
+        (True: actions were queued) and then plan the job again. Group conditions (a stack, an order) hold only
+        when every job is done, so their jobs are not checked."""
+        job = self._job
+        if job_done(self.env, job):
+            self._job = None
+            return False
+        if not self._job_settled:
+            self._job_settled = True
+            self._hold(self._planner_qpos(), 0.0, JOB_SETTLE_STEPS)
+            return True
+        self._job = None
+        self._retry(job, last=True)
+        return False
+
+    def _retry(self, job: Job, last: bool) -> bool:
+        """Queue `job` again (first when `last` is False: after the others), unless its object has used up its
+        retries; whether it was queued."""
+        used = self._retries.get(job.obj, 0)
+        if used >= JOB_RETRIES:
+            return False
+        self._retries[job.obj] = used + 1
+        if last:
+            self.jobs.appendleft(job)
+        else:
+            self.jobs.append(job)
+        return True
 
     # ------------------------------------------------------------------------------------------------ planning
     def _plan_job(self, job: Job) -> None:
