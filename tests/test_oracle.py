@@ -1,7 +1,8 @@
 """The oracle policy and task validation, sized for CI: a few episodes of BananaInBowl, MustardInLeftBin, RubiksCube
 and BananasOutOfBin, a mug held by its wall, a phone reached under an overhang, a measuring cup held by its handle,
 fixture scenes for stacking, standing a block up and standing a lying mug up, a lying jug stood up by its neck, a
-stack taken apart from the top, the shelf cover and a square box closed on across its faces."""
+stack taken apart from the top, the shelf cover, a square box closed on across its faces, and a job planned again
+after its object slipped out of the hand."""
 
 import pytest
 from helpers import put
@@ -281,3 +282,30 @@ def test_oracle_comes_in_under_an_overhang_and_holds_a_cup_by_its_handle(tmp_pat
     results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("SmartphoneInBin", "TakeMeasuringSpoonOut"),
                              episodes=1, first_seed=2), tmp_path, show_progress=False)  # fmt: skip
     assert [r.error for r in results] == [None, None] and all(r.success for r in results)
+
+
+def test_oracle_plans_a_job_again_when_its_object_slips_out_of_the_hand():
+    """The banana is taken out of the closed hand once it is lifted (a slip) and put back where it started: the
+    oracle finds it not in the bowl when the job's moves are over, and picks it up again."""
+    import gymnasium as gym
+
+    env = gym.make("RoboLab-BananaInBowl-v1", obs_mode="state_dict")
+    try:
+        env.reset(seed=0)
+        base = env.unwrapped
+        start = base.objects["banana"].pose.p[0].tolist()
+        oracle = make_policy("oracle")
+        oracle.bind(env)
+        oracle.reset(base.instruction, base.single_action_space, 0)
+        slipped, info = False, {}
+        for _ in range(600):
+            _, _, terminated, _, info = env.step(oracle.act(None))
+            if not slipped and float(base.objects["banana"].pose.p[0, 2]) > start[2] + 0.08:
+                put(base, "banana", start)
+                slipped = True
+            if bool(terminated[0]):
+                break
+        assert slipped and bool(info["success"][0])
+        assert oracle._retries == {"banana": 1}
+    finally:
+        env.close()
