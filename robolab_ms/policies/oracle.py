@@ -104,6 +104,7 @@ STRAIGHT_STEP = 0.01  # m between the waypoints of a straight move, each solved 
 STRAIGHT_TURN = 0.05  # ... or rad of turn between them
 JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
 JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
+SLIP_DISTANCE = 0.05  # m the held object may move away from the hand (its grip settled) before it counts as slipped
 MAX_JOINT_JUMP = 0.25  # rad a joint may change between two waypoints of a straight move (more: a flip, not a line)
 
 
@@ -251,6 +252,8 @@ class OraclePolicy(Policy):
         self._job: Job | None = None  # the job whose actions are being replayed
         self._job_settled = False  # whether the hand has held still once after it, before the second check
         self._retries: dict[str, int] = {}  # per object: jobs planned again
+        self._closed_steps = 0  # actions replayed in a row with the gripper closed
+        self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
         while not self.actions:
@@ -267,7 +270,26 @@ class OraclePolicy(Policy):
                     raise
                 continue
             self._job, self._job_settled = job, False
-        return self.actions.popleft()
+        action = self.actions.popleft()
+        if self._job is not None and self._slipped(action):  # the rest of the job is moot: open, check, plan again
+            self.actions.clear()
+            self._hold(self._planner_qpos(), 0.0, GRIPPER_STEPS)
+            action = self.actions.popleft()
+        return action
+
+    def _slipped(self, action: np.ndarray) -> bool:
+        """Whether the object of the job being replayed has fallen away from the closed hand: once the grip has
+        settled, its distance from the TCP grew by more than SLIP_DISTANCE."""
+        if action[7] < 0.5:
+            self._closed_steps, self._held_offset = 0, None
+            return False
+        self._closed_steps += 1
+        if self._closed_steps < GRIPPER_STEPS + SETTLE_STEPS:
+            return False
+        offset = float(np.linalg.norm((self.env.objects[self._job.obj].pose.p[0] - self.env.tcp_pose().p[0]).cpu()))
+        if self._held_offset is None:
+            self._held_offset = offset
+        return offset > self._held_offset + SLIP_DISTANCE
 
     def _check_job(self) -> bool:
         """After a job's actions: whether its object satisfies the task's condition; if not, hold still once
