@@ -104,6 +104,8 @@ STRAIGHT_STEP = 0.01  # m between the waypoints of a straight move, each solved 
 STRAIGHT_TURN = 0.05  # ... or rad of turn between them
 JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
 JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
+DENSE_EDGE = 0.01  # m: a retried grasp measures a mesh object's widths on its collision hulls' faces cut this fine
+FAILED_GRASP_RADIUS = 0.025  # m: a grasp this near one whose job failed (same closing within 30 degrees) comes last
 SLIP_DISTANCE = 0.05  # m the held object may move away from the hand (its grip settled) before it counts as slipped
 MAX_JOINT_JUMP = 0.25  # rad a joint may change between two waypoints of a straight move (more: a flip, not a line)
 
@@ -252,6 +254,7 @@ class OraclePolicy(Policy):
         self._job: Job | None = None  # the job whose actions are being replayed
         self._job_settled = False  # whether the hand has held still once after it, before the second check
         self._retries: dict[str, int] = {}  # per object: jobs planned again
+        self._grasps: dict[str, list[np.ndarray]] = {}  # per object: the top-down grasps its jobs were planned with
         self._closed_steps = 0  # actions replayed in a row with the gripper closed
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
 
@@ -304,7 +307,7 @@ class OraclePolicy(Policy):
             self._hold(self._planner_qpos(), 0.0, JOB_SETTLE_STEPS)
             return True
         self._job = None
-        self._retry(job, last=True)
+        self._retry(job, last=True)  # with another grasp: the one that failed comes last (grasp_pose's `failed`)
         return False
 
     def _retry(self, job: Job, last: bool) -> bool:
@@ -329,7 +332,9 @@ class OraclePolicy(Policy):
         if not env.scene.gpu_sim_enabled and covered(env, job.obj):  # on a shelf level under another
             self._plan_front_job(job)
             return
-        grasp = grasp_pose(env, job.obj)
+        failed = self._grasps.setdefault(job.obj, [])
+        grasp = grasp_pose(env, job.obj, failed=failed)
+        failed.append(grasp)  # a job that succeeds is not planned again, so only failed grasps are looked at
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
         snug = _snug(env, job.obj, grasp)
@@ -810,20 +815,45 @@ def _world_points(env: RoboLabEnv, name: str) -> np.ndarray:
     return local @ rotation.T + ctx.position(name)[0].cpu().numpy()
 
 
+_DENSE_POINTS: dict[str, np.ndarray] = {}  # per catalog object: points on its collision hulls' faces, object frame
+
+
+def _dense_world_points(env: RoboLabEnv, name: str) -> np.ndarray:
+    """Points on the faces of a mesh object's collision hulls, no more than DENSE_EDGE apart, in the world (N, 3);
+    the surface points alone for a procedural object (those are already spread over its faces)."""
+    import trimesh
+
+    entry = env.eval_context.entries[name]
+    if entry.name not in _DENSE_POINTS:
+        pieces = [entry.points]
+        for hull in entry.hulls:
+            mesh = trimesh.convex.convex_hull(hull)
+            vertices, _ = trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=DENSE_EDGE)
+            pieces.append(np.asarray(vertices))
+        _DENSE_POINTS[entry.name] = np.concatenate(pieces)
+    ctx = env.eval_context
+    rotation = ctx.rotation(name)[0].cpu().numpy()
+    return _DENSE_POINTS[entry.name] @ rotation.T + ctx.position(name)[0].cpu().numpy()
+
+
 def object_bottom(env: RoboLabEnv, name: str) -> float:
     return float(_world_points(env, name)[:, 2].min())
 
 
-def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, keep_sign: bool = False) -> np.ndarray:
+def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, keep_sign: bool = False,
+               failed: list[np.ndarray] = ()) -> np.ndarray:  # fmt: skip
     """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP. Of the candidate grasps (the fingers closing along
     `closing`, or along directions turned from the part's narrowest horizontal one; the hand centred on the
     object's footprint or moved along the part) the one whose hand clears the neighbours, then the one nearest the
-    middle and least turned. Where nothing of the object is at the middle of its footprint (a ring, a pair of
+    middle and least turned; candidates near a grasp in `failed` (earlier grasps of this object whose job did not
+    succeed) only after all others. Where nothing of the object is at the middle of its footprint (a ring, a pair of
     glasses) its part nearest the middle is grasped. The height: a little below the part's top, lower on a part
     that is widest further down (a ball: its widest section that fits between the open fingers), and the closed
     fingertips clear of the table."""
     env.eval_context.refresh()
     points = _world_points(env, name)
+    if len(failed):  # a grasp failed: measure on the faces too (between a mesh's hull corners a slab can look thin)
+        points = np.concatenate([points, _dense_world_points(env, name)])
     bottom = points[:, 2].min()  # of the whole object: what the fingertips must stay clear of is below it
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
     part_only = not _hits(env, name, centre[:2], points[:, 2].max())
@@ -878,6 +908,8 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
             snag = not long and (fingers > FINGER_SNAG or width > MAX_GRASP_WIDTH)  # a utensil: across it, as before
             key = (blocked > 0.0, round(blocked, 3), snag, shift != 0.0 or turn_rank > 0, cost)  # others if blocked
+            if failed:
+                key = (_near_failed(xy, direction, failed), *key)
             if best_key is None or key < best_key:
                 best, best_key = (xy, z, direction), key
     xy, z, direction = best
@@ -892,6 +924,16 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         if wall is not None:
             return wall
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
+
+
+def _near_failed(xy: np.ndarray, closing: np.ndarray, failed: list[np.ndarray]) -> bool:
+    """Whether a grasp at `xy` closing along `closing` is within FAILED_GRASP_RADIUS of one in `failed`, closing
+    along nearly the same line."""
+    for pose in failed:
+        other = quat_to_matrix(pose[3:])[:2, 1]  # the hand's y axis: its closing direction
+        if np.linalg.norm(pose[:2] - xy) < FAILED_GRASP_RADIUS and abs(float(closing @ other)) > np.cos(np.radians(30)):
+            return True
+    return False
 
 
 def _snug(env: RoboLabEnv, name: str, grasp: np.ndarray) -> bool:
