@@ -73,7 +73,7 @@ def _inflated_fixtures(policy: OraclePolicy, margin: float) -> Iterator[None]:
     from robolab_ms.policies.oracle import _fixture_boxes, _matrix_to_quaternion
 
     fcl = mp.collision_detection.fcl
-    boxes = _fixture_boxes(policy.env)
+    boxes = _fixture_boxes(policy.env) if policy._fixture_names else []
 
     def install(grow: float) -> None:
         for name, (rotation, centre, half) in zip(policy._fixture_names, boxes):
@@ -155,16 +155,24 @@ def reach_over_clear(policy: OraclePolicy, qpos: np.ndarray, above: np.ndarray, 
                      name: str) -> np.ndarray:  # fmt: skip
     """Queue the move from posture `qpos` to TCP pose `above` over object `name` (`OraclePolicy._reach_over`);
     where fixtures are in the scene and the straight move from there down to `target` cannot be planned, the move
-    goes instead to a posture from which it can (`clear_posture`), if there is one. Returns the final joints."""
+    goes instead to a posture from which it can (`clear_posture`), if there is one; where `above` cannot be reached
+    at all, to such a posture lower down (`_clear_approach`). Returns the final joints."""
+    from robolab_ms.policies.oracle import OracleFailure
+
     planned = len(policy.actions)
-    end = policy._reach_over(qpos, above, name)
-    if not policy._fixture_names:
+    try:
+        end = policy._reach_over(qpos, above, name)
+    except OracleFailure as error:  # `above` out of reach (raised high over a tall neighbour): lower, if it clears
+        failure, end = error, None
+    if end is not None and not policy._fixture_names:
         return end
-    if policy._plan_straight(policy._flange_target(target), end)["status"] == "Success":
+    if end is not None and policy._plan_straight(policy._flange_target(target), end)["status"] == "Success":
         return end
     with _inflated_fixtures(policy, FIXTURE_MARGIN):
         path = _clear_approach(policy, qpos, above, target)
     if path is None:
+        if end is None:
+            raise failure
         return end
     while len(policy.actions) > planned:
         policy.actions.pop()
