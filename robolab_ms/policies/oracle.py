@@ -23,7 +23,7 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
-from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, reach_over_clear
+from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
@@ -331,7 +331,8 @@ class OraclePolicy(Policy):
     def _plan_front_place(self, qpos: np.ndarray, name: str, way: np.ndarray, place: np.ndarray, where: str) -> None:
         """Set the held object down on a high shelf from the front: carry it to `way` (see `_front_place_way`),
         slide it in horizontally over `place`, lower it, let go, and take the hand back up a little and out."""
-        qpos = self._move(qpos, way, f"carry '{name}' in front of {where}", straight=False)
+        qpos = move_for_chain(self, qpos, way, [_raised(place, FRONT_PLACE_RISE), place],
+                              f"carry '{name}' in front of {where}")  # fmt: skip
         qpos = self._move_straight(qpos, _raised(place, FRONT_PLACE_RISE), f"slide '{name}' in over {where}")
         qpos = self._move_straight(qpos, place, f"lower '{name}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)

@@ -198,3 +198,32 @@ def _clear_approach(policy: OraclePolicy, qpos: np.ndarray, above: np.ndarray, t
         if path is not None:
             return path
     return None
+
+
+def move_for_chain(policy: OraclePolicy, qpos: np.ndarray, pose: np.ndarray, chain: list[np.ndarray],
+                   what: str) -> np.ndarray:  # fmt: skip
+    """Queue the move from posture `qpos` to TCP pose `pose` (`OraclePolicy._move`, a sampled path allowed) so that
+    it ends in a posture from which the straight moves through the TCP poses `chain` can be planned: where the
+    posture it reaches has none, the postures over `pose` found from many random starts are tried (nearest the
+    arm's rest posture turned towards `pose` first). Returns the final joints."""
+    planned = len(policy.actions)
+    end = policy._move(qpos, pose, what, straight=False)
+    if policy._straight_chain(end, chain) is not None:
+        return end
+    status, goals = policy._planner.IK(policy._flange_target(pose), qpos, n_init_qpos=POSTURE_STARTS)
+    if status != "Success":
+        return end
+    neutral = np.array(NEUTRAL_POSTURE)
+    neutral[0] = np.arctan2(pose[1], pose[0])
+    for goal in sorted(goals, key=lambda joints: float(np.abs(joints[:7] - neutral).max())):
+        start = qpos.copy()
+        start[:7] = goal[:7]
+        if policy._collides(start) or policy._straight_chain(start, chain) is None:
+            continue
+        result = policy._plan_to_joints([start], qpos)
+        if result["status"] != "Success":
+            continue
+        while len(policy.actions) > planned:
+            policy.actions.pop()
+        return policy._queue(qpos, result["position"])
+    return end
