@@ -24,6 +24,7 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
@@ -346,7 +347,7 @@ class OraclePolicy(Policy):
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
         above_grasp = _above(env, grasp if sideways is None else sideways[0], APPROACH_HEIGHT, hanging=0.0)
-        qpos = self._reach_over(qpos, above_grasp, job.obj)
+        qpos = reach_over_clear(self, qpos, above_grasp, grasp if sideways is None else sideways[0], job.obj)
         if sideways is not None:
             qpos = self._move(qpos, sideways[0], f"descend beside '{job.obj}'")
             qpos = self._move(qpos, sideways[1], f"move in over '{job.obj}'")
@@ -413,7 +414,8 @@ class OraclePolicy(Policy):
     def _plan_front_place(self, qpos: np.ndarray, name: str, way: np.ndarray, place: np.ndarray, where: str) -> None:
         """Set the held object down on a high shelf from the front: carry it to `way` (see `_front_place_way`),
         slide it in horizontally over `place`, lower it, let go, and take the hand back up a little and out."""
-        qpos = self._move(qpos, way, f"carry '{name}' in front of {where}", straight=False)
+        qpos = move_for_chain(self, qpos, way, [_raised(place, FRONT_PLACE_RISE), place],
+                              f"carry '{name}' in front of {where}")  # fmt: skip
         qpos = self._move_straight(qpos, _raised(place, FRONT_PLACE_RISE), f"slide '{name}' in over {where}")
         qpos = self._move_straight(qpos, place, f"lower '{name}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
@@ -478,7 +480,7 @@ class OraclePolicy(Policy):
         planner = self._planner
         if planner.check_for_self_collision(qpos=qpos):
             return True
-        return bool(self._fixture_names) and bool(planner.check_for_env_collision(qpos=qpos))
+        return bool(self._fixture_names) and arm_hits_fixture(self, qpos)
 
     def _plan_front_job(self, job: Job) -> None:
         """Take an object off a shelf level under another one: the hand comes in leaning out of the shelf (see
@@ -1045,6 +1047,7 @@ def wall_grasp(env: RoboLabEnv, name: str,
     centre = (rim[:, :2].max(axis=0) + rim[:, :2].min(axis=0)) / 2
     radius = float(np.linalg.norm(rim[:, :2] - centre, axis=1).max())
     best, best_key = None, None
+    fixtures = [] if env.scene.gpu_sim_enabled else _fixture_boxes(env)
     for index in range(WALL_GRASP_TURNS):
         angle = 2 * np.pi * index / WALL_GRASP_TURNS
         outward = np.array([np.cos(angle), np.sin(angle)])
@@ -1060,7 +1063,8 @@ def wall_grasp(env: RoboLabEnv, name: str,
                              & (tangential < HANDLE_HALF_WIDTH) & (points[:, 2] > z - PAD_LENGTH)))  # fmt: skip
         fingers, body = _hand_clash(heights, xy, outward, z)
         comfort = abs(float(np.linalg.norm(xy)) - COMFORTABLE_REACH)  # then the side the arm reaches most easily
-        key = (handle, fingers + body > 0.01, round(fingers + body, 3), comfort)
+        near = round(fixture_closeness(fixtures, xy, z), 2)  # away from a shelf beside it, where the arm passes it
+        key = (handle, fingers + body > 0.01, near, round(fingers + body, 3), comfort)
         if best_key is None or key < best_key:
             best, best_key = (xy, z, outward), key
     if best is None:

@@ -1,0 +1,37 @@
+"""The oracle beside a shelf (robolab_ms/policies/oracle_clear.py): the hand is checked against the rack as the real
+gripper, a mug is held by the side of its wall away from the rack, and a bowl beside the rack goes onto its top."""
+
+import gymnasium as gym
+import numpy as np
+
+from robolab_ms.eval.runner import EvalConfig, run_evaluation
+from robolab_ms.policies import make_policy
+from robolab_ms.policies.oracle import _centre, grasp_pose
+from robolab_ms.tasks.spec import load_task
+
+
+def test_beside_the_rack_the_hand_is_the_gripper_and_the_mug_is_held_away_from_it():
+    env = gym.make(load_task("PutMugsOnShelf").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=7)
+        base = env.unwrapped
+        oracle = make_policy("oracle")
+        oracle.bind(env)
+        oracle.reset(base.instruction, base.single_action_space, 7)
+        home = oracle._planner_qpos()
+        touching = {hit.link_name1 for hit in oracle._planner.check_for_env_collision(qpos=home)}
+        assert touching == {"panda_hand"}  # the planner's Panda hand at the start posture reaches the top board ...
+        assert not oracle._collides(home)  # ... the droid's gripper there does not
+        mug, rack = _centre(base, "mug")[:2], _centre(base, "rack_l04")[:2]
+        grasp = grasp_pose(base, "mug")
+        assert float((grasp[:2] - mug) @ (rack - mug)) < 0.0  # the wall on the far side from the rack
+    finally:
+        env.close()
+
+
+def test_oracle_puts_a_bowl_beside_the_rack_on_its_top(tmp_path):
+    """Seed 5: the descent the planner picks first passes the forearm through the rack's top board; the fallback
+    joint path used to push the bowl aside before the grasp."""
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("PutBowlOnShelfTop",), episodes=1, first_seed=5),
+                             tmp_path, show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success
