@@ -637,7 +637,10 @@ class OraclePolicy(Policy):
                 result = self._planner.plan_screw(self._flange_target(pose), current, time_step=self._time_step)
             if result["status"] != "Success":
                 return None
-            paths.append(np.asarray(result["position"]))
+            position = np.asarray(result["position"])
+            if len(position) == 0:  # the screw motion found the hand already there: a path that stays put
+                position = current[None, :7].copy()
+            paths.append(position)
             current[:7] = paths[-1][-1]
         return paths
 
