@@ -23,7 +23,9 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle_carry import held_spread, high_carry
 from robolab_ms.policies.oracle_handle import handle_grasp
+from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 
@@ -152,7 +154,7 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
     predicate, references, params = condition.predicate, condition.references, condition.params
     if predicate in ("in_container", "enclosed", "on_top", "on_center", "placed_in_container_in_order"):
         reference = next(iter(references.values()))
-        return [Job(name, onto=reference) for name in objects]
+        return [Job(name, onto=reference, upright=lying_container(env, name)) for name in objects]
     if predicate == "groups_in_containers":
         home = {name: container for container, members in params["groups"].items() for name in members}
         return [Job(name, onto=home[name]) for name in objects]
@@ -245,6 +247,10 @@ class OraclePolicy(Policy):
     # ------------------------------------------------------------------------------------------------ planning
     def _plan_job(self, job: Job) -> None:
         env = self.env
+        if job.upright and job.onto is not None:  # a lying container stood up first where it can be, then moved
+            if stand_before_moving(self, job):
+                return
+            job = Job(job.obj, onto=job.onto, centred=job.centred)
         if job.upright:
             self._plan_reorientation(job.obj)
             return
@@ -255,6 +261,7 @@ class OraclePolicy(Policy):
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
         snug = _snug(env, job.obj, grasp)
+        spread = held_spread(env, job.obj, grasp)
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
@@ -281,9 +288,12 @@ class OraclePolicy(Policy):
                 self._move(qpos, _raised(sideways[0], STEP_LIFT + job.lift), f"lift '{job.obj}'")
                 return
             lifted = _above(env, _raised(sideways[0], STEP_LIFT), LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
-        qpos = self._move(qpos, lifted, f"lift '{job.obj}'")
+        carry = high_carry(env, job.obj, lifted, above_place, held_bottom, spread, job.onto)
+        qpos = self._move(qpos, lifted if carry is None else carry[0], f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
         try:
+            if carry is not None:  # over something tall on the way, at one height, then down to the pose over the place
+                qpos = self._move(qpos, carry[1], f"carry '{job.obj}' high over {where}")
             qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
         except OracleFailure:  # too high above a shelf: in from the front, if there is a way
             way = self._front_place_way(job.obj, grasp, place)
