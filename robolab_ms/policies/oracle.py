@@ -26,6 +26,7 @@ from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle_carry import held_spread, high_carry
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
+from robolab_ms.policies.oracle_release import backed_off
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 
@@ -1170,8 +1171,8 @@ def free_place(
     if found is not None:
         return found
     found = _reached_over_rim(free, reached)  # a spot nearer the robot that the held object reaches over the rim
-    if found is not None:
-        return found
+    if found is not None:  # a little nearer still, but a long tool keeps the far spot (room for the next one)
+        return found if tool else backed_off(free, found, reached)
     clearing[0] = False
     found = reached(free[0])
     if found is not None:
