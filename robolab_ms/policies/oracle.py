@@ -1171,8 +1171,8 @@ def free_place(
     if found is not None:
         return found
     found = _reached_over_rim(free, reached)  # a spot nearer the robot that the held object reaches over the rim
-    if found is not None:  # a little nearer still, but a long tool keeps the far spot (room for the next one)
-        return found if tool else backed_off(free, found, reached)
+    if found is not None:  # a little nearer still, where that leaves room for another object of its size
+        return backed_off(free, found, reached, held_points, grasp)
     clearing[0] = False
     found = reached(free[0])
     if found is not None:
