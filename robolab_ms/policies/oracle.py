@@ -26,7 +26,7 @@ from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle_carry import held_spread, high_carry
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
-from robolab_ms.policies.oracle_release import backed_off
+from robolab_ms.policies.oracle_release import backed_off, settle_pose
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 
@@ -276,6 +276,9 @@ class OraclePolicy(Policy):
             qpos = self._move(qpos, sideways[0], f"descend beside '{job.obj}'")
             qpos = self._move(qpos, sideways[1], f"move in over '{job.obj}'")
             self._hold(qpos, 0.0, STEP_SETTLE_STEPS)  # the pads go down millimetres from the object's edges
+        if snug and sideways is None:  # the open pads pass it with millimetres to spare: first settle just above it
+            qpos = self._move(qpos, settle_pose(env, job.obj, grasp), f"settle over '{job.obj}'")
+            self._hold(qpos, 0.0, STEP_SETTLE_STEPS)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
         if job.onto is None and job.at is None and sideways is None:

@@ -51,3 +51,18 @@ def _footprint(pose: np.ndarray, held: np.ndarray, grasp: np.ndarray) -> tuple[n
     turn = quat_to_matrix(pose[3:]) @ quat_to_matrix(grasp[3:]).T
     points = held @ turn[:2, :2].T + pose[:2]
     return points.min(axis=0), points.max(axis=0)
+
+
+SETTLE_CLEARANCE = 0.01  # m between the open pads' lower ends and the top of an object they barely go round
+
+
+def settle_pose(env: RoboLabEnv, name: str, grasp: np.ndarray) -> np.ndarray:
+    """`grasp` raised until the open pads' lower ends are SETTLE_CLEARANCE above the top of object `name`: where
+    the hand waits for the arm to catch up before going down round an object as wide as the open fingers (a tuna
+    can), which a pad lagging a few millimetres behind lands on."""
+    from robolab_ms.policies.oracle import _world_points
+    from robolab_ms.policies.oracle_overhang import PAD_BELOW_TCP
+
+    pose = grasp.copy()
+    pose[2] = max(grasp[2], float(_world_points(env, name)[:, 2].max()) + PAD_BELOW_TCP + SETTLE_CLEARANCE)
+    return pose
