@@ -262,7 +262,7 @@ class OraclePolicy(Policy):
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
         snug = _snug(env, job.obj, grasp)
-        spread = held_spread(env, job.obj, grasp)
+        around = held_spread(env, job.obj, grasp)  # how far the held object reaches from the TCP
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
@@ -292,7 +292,7 @@ class OraclePolicy(Policy):
                 self._move(qpos, _raised(sideways[0], STEP_LIFT + job.lift), f"lift '{job.obj}'")
                 return
             lifted = _above(env, _raised(sideways[0], STEP_LIFT), LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
-        carry = high_carry(env, job.obj, lifted, above_place, held_bottom, spread, job.onto)
+        carry = high_carry(env, job.obj, lifted, above_place, held_bottom, around, job.onto)
         qpos = self._move(qpos, lifted if carry is None else carry[0], f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
         try:
