@@ -25,7 +25,10 @@ from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
+from robolab_ms.policies.oracle_carry import held_spread, high_carry
 from robolab_ms.policies.oracle_handle import handle_grasp
+from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
+from robolab_ms.policies.oracle_release import backed_off, settle_pose
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 from robolab_ms.tasks.predicates import PREDICATES, per_object
@@ -160,7 +163,7 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
     predicate, references, params = condition.predicate, condition.references, condition.params
     if predicate in ("in_container", "enclosed", "on_top", "on_center", "placed_in_container_in_order"):
         reference = next(iter(references.values()))
-        return [Job(name, onto=reference) for name in objects]
+        return [Job(name, onto=reference, upright=lying_container(env, name)) for name in objects]
     if predicate == "groups_in_containers":
         home = {name: container for container, members in params["groups"].items() for name in members}
         return [Job(name, onto=home[name]) for name in objects]
@@ -266,14 +269,15 @@ class OraclePolicy(Policy):
             if not self.jobs:  # everything done: hold still with the gripper open
                 return self._action(self._planner_qpos(), 0.0)
             job = self.jobs.popleft()
+            self._job, self._job_settled = job, False  # _plan_job may hand the check to a job it queues
             try:
                 self._plan_job(job)
             except OracleFailure:
+                self._job = None
                 self.actions.clear()  # a plan that failed half-way leaves nothing to replay
                 if not self._retry(job, last=False):
                     raise
                 continue
-            self._job, self._job_settled = job, False
         action = self.actions.popleft()
         if self._job is not None and self._slipped(action):  # the rest of the job is moot: open, check, plan again
             self.actions.clear()
@@ -327,6 +331,11 @@ class OraclePolicy(Policy):
     # ------------------------------------------------------------------------------------------------ planning
     def _plan_job(self, job: Job) -> None:
         env = self.env
+        if job.upright and job.onto is not None:  # a lying container stood up first where it can be, then moved
+            if stand_before_moving(self, job):
+                self._job = None  # only the stand-up is queued: the move queued after it is the job checked
+                return
+            job = self._job = Job(job.obj, onto=job.onto, centred=job.centred)
         if job.upright:
             self._plan_reorientation(job.obj)
             return
@@ -339,6 +348,7 @@ class OraclePolicy(Policy):
         held_offset = grasp[:2] - _centre(env, job.obj)[:2]  # from the middle of the footprint to the TCP
         held_bottom = grasp[2] - object_bottom(env, job.obj)  # TCP height above the object's bottom
         snug = _snug(env, job.obj, grasp)
+        around = held_spread(env, job.obj, grasp)  # how far the held object reaches from the TCP
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
@@ -352,6 +362,9 @@ class OraclePolicy(Policy):
             qpos = self._move(qpos, sideways[0], f"descend beside '{job.obj}'")
             qpos = self._move(qpos, sideways[1], f"move in over '{job.obj}'")
             self._hold(qpos, 0.0, STEP_SETTLE_STEPS)  # the pads go down millimetres from the object's edges
+        if snug and sideways is None:  # the open pads pass it with millimetres to spare: first settle just above it
+            qpos = self._move(qpos, settle_pose(env, job.obj, grasp), f"settle over '{job.obj}'")
+            self._hold(qpos, 0.0, STEP_SETTLE_STEPS)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
         if job.onto is None and job.at is None and sideways is None:
@@ -365,9 +378,12 @@ class OraclePolicy(Policy):
                 self._move(qpos, _raised(sideways[0], STEP_LIFT + job.lift), f"lift '{job.obj}'")
                 return
             lifted = _above(env, _raised(sideways[0], STEP_LIFT), LIFT_HEIGHT, hanging=held_bottom, held=job.obj)
-        qpos = self._move(qpos, lifted, f"lift '{job.obj}'")
+        carry = high_carry(env, job.obj, lifted, above_place, held_bottom, around, job.onto)
+        qpos = self._move(qpos, lifted if carry is None else carry[0], f"lift '{job.obj}'")
         where = f"'{job.onto}'" if job.onto else f"the table at ({job.at[0]:.2f}, {job.at[1]:.2f})"
         try:
+            if carry is not None:  # over something tall on the way, at one height, then down to the pose over the place
+                qpos = self._move(qpos, carry[1], f"carry '{job.obj}' high over {where}")
             qpos = self._move(qpos, above_place, f"carry '{job.obj}' over {where}", straight=False)
         except OracleFailure:  # too high above a shelf: in from the front, if there is a way
             way = self._front_place_way(job.obj, grasp, place)
@@ -1287,8 +1303,8 @@ def free_place(
     if found is not None:
         return found
     found = _reached_over_rim(free, reached)  # a spot nearer the robot that the held object reaches over the rim
-    if found is not None:
-        return found
+    if found is not None:  # a little nearer still, where that leaves room for another object of its size
+        return backed_off(free, found, reached, held_points, grasp)
     clearing[0] = False
     found = reached(free[0])
     if found is not None:
