@@ -275,7 +275,7 @@ class OraclePolicy(Policy):
             except OracleFailure:
                 self._job = None
                 self.actions.clear()  # a plan that failed half-way leaves nothing to replay
-                if not self._retry(job, last=False):
+                if not self._retry(job, first=False):
                     raise
                 continue
         action = self.actions.popleft()
@@ -312,17 +312,17 @@ class OraclePolicy(Policy):
             self._hold(self._planner_qpos(), 0.0, JOB_SETTLE_STEPS)
             return True
         self._job = None
-        self._retry(job, last=True)  # with another grasp: the one that failed comes last (grasp_pose's `failed`)
+        self._retry(job, first=True)  # with another grasp: the one that failed comes last (grasp_pose's `failed`)
         return False
 
-    def _retry(self, job: Job, last: bool) -> bool:
-        """Queue `job` again (first when `last` is False: after the others), unless its object has used up its
-        retries; whether it was queued."""
+    def _retry(self, job: Job, first: bool) -> bool:
+        """Queue `job` again, at the front of the jobs when `first` (planned next), else after the others, unless
+        its object has used up its retries; whether it was queued."""
         used = self._retries.get(job.obj, 0)
         if used >= JOB_RETRIES:
             return False
         self._retries[job.obj] = used + 1
-        if last:
+        if first:
             self.jobs.appendleft(job)
         else:
             self.jobs.append(job)
