@@ -830,8 +830,12 @@ def _make_planner(env: RoboLabEnv):
 # ------------------------------------------------------------------------------------------------ geometry
 def _world_points(env: RoboLabEnv, name: str) -> np.ndarray:
     """The object's collision surface points in the world (N, 3)."""
+    return _in_world(env, name, env.eval_context.entries[name].points)
+
+
+def _in_world(env: RoboLabEnv, name: str, local: np.ndarray) -> np.ndarray:
+    """Points (N, 3) given in object `name`'s frame, in the world."""
     ctx = env.eval_context
-    local = env.eval_context.entries[name].points
     rotation = ctx.rotation(name)[0].cpu().numpy()
     return local @ rotation.T + ctx.position(name)[0].cpu().numpy()
 
@@ -852,9 +856,7 @@ def _dense_world_points(env: RoboLabEnv, name: str) -> np.ndarray:
             vertices, _ = trimesh.remesh.subdivide_to_size(mesh.vertices, mesh.faces, max_edge=DENSE_EDGE)
             pieces.append(np.asarray(vertices))
         _DENSE_POINTS[entry.name] = np.concatenate(pieces)
-    ctx = env.eval_context
-    rotation = ctx.rotation(name)[0].cpu().numpy()
-    return _DENSE_POINTS[entry.name] @ rotation.T + ctx.position(name)[0].cpu().numpy()
+    return _in_world(env, name, _DENSE_POINTS[entry.name])
 
 
 def object_bottom(env: RoboLabEnv, name: str) -> float:
