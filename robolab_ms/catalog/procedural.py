@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -338,6 +338,48 @@ def drill(height: float = 0.22, length: float = 0.2) -> list[Part]:
     return parts
 
 
+def _limb(radius: float, start: tuple[float, float, float], end: tuple[float, float, float], tint: int = 0) -> Part:
+    """A capsule from `start` to `end` (its two cap centres)."""
+    a, b = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    axis = b - a
+    half_length = float(np.linalg.norm(axis)) / 2
+    x = np.array([1.0, 0.0, 0.0])
+    turn = np.cross(x, axis)
+    angle = math.atan2(float(np.linalg.norm(turn)), float(x @ axis))
+    rotation = axis_angle_quat(tuple(turn), angle) if np.linalg.norm(turn) > 1e-9 else IDENTITY
+    return Part("capsule", (radius, half_length), tuple(float(v) for v in (a + b) / 2), rotation, tint)
+
+
+def lizard(length: float = 0.24, width: float = 0.14, height: float = 0.135, body_radius: float = 0.026) -> list[Part]:
+    """A lizard figurine standing on four splayed legs, head raised at +x, its tail down on the table at -x; the
+    eyes take the second colour. The body is a slender capsule (`body_radius`), so it is narrower than the legs'
+    span (`width`)."""
+    head_radius, tail_radius, leg_radius = 0.8 * body_radius, 0.4 * body_radius, 0.42 * body_radius
+    head_tip = 0.42 * length  # the head's front ahead of the body's middle; the tail ends `length` behind it
+    hip, shoulder = (-0.045, 0.0, 0.045), (0.05, 0.0, 0.06)
+    head_end = (head_tip - head_radius, 0.0, height - head_radius)
+    head_start = (head_end[0] - 0.045, 0.0, head_end[2] - 0.035)
+    tail_mid = (-0.095, 0.0, 0.022)
+    tail_end = (head_tip - length + tail_radius * 0.8, 0.025, tail_radius * 0.8)
+    parts = [
+        _limb(body_radius, hip, shoulder),
+        _limb(0.85 * body_radius, (shoulder[0] - 0.005, 0.0, shoulder[2]), head_start),  # neck
+        _limb(head_radius, head_start, head_end),
+        _limb(0.6 * body_radius, (hip[0] - 0.01, 0.0, hip[2] - 0.005), tail_mid),
+        _limb(tail_radius * 0.8, tail_mid, tail_end),
+    ]  # fmt: skip
+    foot = width / 2 - leg_radius
+    for x, z, reach in ((hip[0] + 0.01, hip[2], -0.012), (shoulder[0] - 0.01, shoulder[2], 0.012)):
+        for side in (-1, 1):
+            parts.append(_limb(leg_radius, (x, side * 0.5 * body_radius, z), (x + reach, side * foot, leg_radius)))
+    for side in (-1, 1):  # the eyes, on the sides of the head
+        eye = (head_end[0] - 0.004, side * head_radius * 0.8, head_end[2] + 0.004)
+        parts.append(Part("sphere", (0.005,), eye, IDENTITY, 1))
+    points = np.concatenate([part.surface_points() for part in parts])
+    shift = -(points[:, 0].min() + points[:, 0].max()) / 2  # the origin under the middle of the figurine's length
+    return [replace(part, position=(part.position[0] + shift, *part.position[1:])) for part in parts]
+
+
 def clamp(length: float = 0.16, jaw: float = 0.04) -> list[Part]:
     """A spring clamp lying flat: two handles in a narrow V and two jaw pads (second colour)."""
     thickness = 0.02
@@ -401,6 +443,7 @@ GENERATORS: dict[str, Callable[..., list[Part]]] = {
     "utensil": utensil,
     "hammer": hammer,
     "drill": drill,
+    "lizard": lizard,
     "clamp": clamp,
     "stick": stick,
     "puzzle_cube": puzzle_cube,
