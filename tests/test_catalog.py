@@ -155,3 +155,22 @@ def test_contact_sheet_is_a_labelled_grid(tmp_path):
 def test_contact_sheet_in_docs_exists():
     sheet = Path(__file__).parents[1] / "docs" / "images" / "contact_sheet.png"
     assert sheet.is_file() and sheet.stat().st_size < 2_000_000
+
+
+def test_lizard_figurine_is_robolab_sized_with_a_body_the_open_gripper_spans():
+    """RoboLab's lizard figurine is 24 x 14 x 13.5 cm; ours has that bounding box, stands on the table, and
+    across its body, between its legs, it is narrower than the open fingers (8.6 cm), as a lizard is."""
+    from robolab_ms.catalog.procedural import lizard
+    from robolab_ms.policies.oracle import OPEN_FINGER_GAP
+
+    parts = lizard(length=0.24, width=0.14, height=0.135)
+    points = np.concatenate([part.surface_points() for part in parts])
+    assert np.allclose(np.ptp(points, axis=0), [0.24, 0.14, 0.135], atol=0.002)
+    assert abs(points[:, 2].min()) < 1e-3 and abs(points[:, 0].min() + points[:, 0].max()) < 1e-6
+    body_middle = parts[0].position[0]  # the body is the first part
+    low = np.array([np.asarray(part.position) - part.half_extent() for part in parts])
+    high = np.array([np.asarray(part.position) + part.half_extent() for part in parts])
+    across = (low[:, 0] < body_middle + 0.01) & (high[:, 0] > body_middle - 0.01)  # parts within 1 cm of it
+    assert across.sum() < len(parts) - 4  # clear of the four legs: room for the finger pads
+    assert high[across, 1].max() - low[across, 1].min() < OPEN_FINGER_GAP - 0.02
+    assert load_catalog()["lizard_figurine"].source.generator == "lizard"
