@@ -173,4 +173,4 @@ def test_lizard_figurine_is_robolab_sized_with_a_body_the_open_gripper_spans():
     across = (low[:, 0] < body_middle + 0.01) & (high[:, 0] > body_middle - 0.01)  # parts within 1 cm of it
     assert across.sum() < len(parts) - 4  # clear of the four legs: room for the finger pads
     assert high[across, 1].max() - low[across, 1].min() < OPEN_FINGER_GAP - 0.02
-    assert load_catalog()["lizard_figurine"].source.generator == "lizard"
+    assert load_catalog()["lizard_figurine"].source["generator"] == "lizard"
