@@ -1186,10 +1186,27 @@ def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float,
         points = _world_points(env, job.onto)
         x, y = (points[:, :2].max(axis=0) + points[:, :2].min(axis=0)) / 2
         top = points[:, 2].max()
+        if env.eval_context.entries[job.onto].is_container:  # over what already fills it (a keyboard over the rim)
+            top = max(top, _contents_top(env, job.onto, points, job.obj))
     else:
         (x, y), top = np.asarray(job.at) + held_offset, 0.0
     place = np.concatenate([[x, y, top + RELEASE_CLEARANCE + held_bottom], grasp[3:]])
     return place, _over_place(env, place, held_bottom, job.obj, job.onto)[0]
+
+
+def _contents_top(env: RoboLabEnv, container: str, points: np.ndarray, held: str) -> float:
+    """The highest point of the objects (other than `held`) whose middle lies within the container's outline
+    (`points`, its world points), or 0 where there are none."""
+    low, high = points[:, :2].min(axis=0), points[:, :2].max(axis=0)
+    top = 0.0
+    for other in env.objects:
+        if other in (container, held):
+            continue
+        other_points = _world_points(env, other)
+        middle = (other_points[:, :2].min(axis=0) + other_points[:, :2].max(axis=0)) / 2
+        if np.all(middle >= low) and np.all(middle <= high):
+            top = max(top, float(other_points[:, 2].max()))
+    return top
 
 
 def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
