@@ -35,3 +35,27 @@ def test_the_release_stays_where_it_was_when_the_nearer_spot_is_not_reached():
     found = (free[-1], free[-1])
     chosen, _ = backed_off(free, found, lambda pose: None, held, free[-1])
     assert float(chosen[0]) == 0.70
+
+
+def test_the_fallback_release_over_a_bin_clears_what_already_sticks_out_of_it():
+    """Where no free spot is found, the held object goes over the middle of the bin: above the keyboard that leans
+    over the bin's rim in workdesk_bin, not at the rim's height where it would push into it."""
+    import gymnasium as gym
+
+    from robolab_ms.policies.oracle import Job, _world_points, grasp_pose, object_bottom, place_pose
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("BlackItemsInBin").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=0)
+        base = env.unwrapped
+        base.eval_context.refresh()
+        keyboard_top = float(_world_points(base, "keyboard")[:, 2].max())
+        rim = float(_world_points(base, "grey_bin")[:, 2].max())
+        assert keyboard_top > rim + 0.05  # it sticks out well over the rim
+        grasp = grasp_pose(base, "glasses")
+        held_bottom = grasp[2] - object_bottom(base, "glasses")
+        place, _ = place_pose(base, Job("glasses", onto="grey_bin"), grasp, held_bottom, np.zeros(2))
+        assert place[2] - held_bottom > keyboard_top  # the glasses' bottom is let go above the keyboard
+    finally:
+        env.close()
