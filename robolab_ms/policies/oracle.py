@@ -31,6 +31,7 @@ from robolab_ms.policies.oracle_lying import lying_container, stand_before_movin
 from robolab_ms.policies.oracle_release import backed_off, settle_pose
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
+from robolab_ms.policies.oracle_tools import higher_hold
 from robolab_ms.tasks.predicates import PREDICATES, per_object
 
 if TYPE_CHECKING:
@@ -926,6 +927,8 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             fingers, body = _hand_clash(heights, xy, direction, z)
             if fingers > FINGER_CLASH_TOLERANCE and side_step(env, name, xy, direction, z, heights) is not None:
                 fingers = 0.0  # an overhang the hand comes in under from the side (oracle_overhang)
+            if tool and fingers > FINGER_CLASH_TOLERANCE:  # its widest part walled in (a drill's battery in a bin)
+                z, width, fingers, body = higher_hold(slab, direction, heights, xy, (z, width, fingers, body))
             cost = abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
             # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
