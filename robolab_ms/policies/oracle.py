@@ -31,7 +31,7 @@ from robolab_ms.policies.oracle_lying import lying_container, stand_before_movin
 from robolab_ms.policies.oracle_release import backed_off, settle_pose
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
-from robolab_ms.policies.oracle_tools import higher_hold
+from robolab_ms.policies.oracle_tools import draw_nearer, far_tool, higher_hold, reachable_above
 from robolab_ms.tasks.predicates import PREDICATES, per_object
 
 if TYPE_CHECKING:
@@ -358,6 +358,9 @@ class OraclePolicy(Policy):
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
         above_grasp = _above(env, grasp if sideways is None else sideways[0], APPROACH_HEIGHT, hanging=0.0)
+        far = sideways is None and far_tool(env, job.obj, grasp)  # a heavy tool at the edge of the arm's reach
+        if far:
+            above_grasp = reachable_above(self, grasp, above_grasp)
         qpos = reach_over_clear(self, qpos, above_grasp, grasp if sideways is None else sideways[0], job.obj)
         if sideways is not None:
             qpos = self._move(qpos, sideways[0], f"descend beside '{job.obj}'")
@@ -368,6 +371,8 @@ class OraclePolicy(Policy):
             self._hold(qpos, 0.0, STEP_SETTLE_STEPS)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
+        if far:  # drawn nearer the robot, just off the floor, where the arm can lift it
+            qpos, grasp = draw_nearer(self, qpos, grasp, job.obj)
         if job.onto is None and job.at is None and sideways is None:
             self._move(qpos, _raised(grasp, job.lift), f"lift '{job.obj}'")
             return
