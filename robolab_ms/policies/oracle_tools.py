@@ -3,7 +3,7 @@ bin), and drawn nearer the robot before it is lifted where it is at the edge of 
 
 grasp_pose holds an object at the widest section that fits between the open fingers, lower down where it is wider
 (round things through their middle). A drill standing in a bin is widest at its battery, down by the bin's floor,
-where the open fingers would meet the bin's walls; grasp_pose then turned the hand to close along the drill's
+where the open fingers would meet the bin's walls, and grasp_pose would turn the hand to close along the drill's
 length, on no part that fits. Such a tool is held higher up instead, GRASP_DEPTH below its top (a drill across
 its body, over its centre of mass), where the fingers clear the walls.
 
