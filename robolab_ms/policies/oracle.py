@@ -31,6 +31,7 @@ from robolab_ms.policies.oracle_lying import lying_container, stand_before_movin
 from robolab_ms.policies.oracle_release import backed_off, settle_pose
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
+from robolab_ms.policies.oracle_tools import draw_nearer, far_tool, higher_hold, reachable_above
 from robolab_ms.tasks.predicates import PREDICATES, per_object
 
 if TYPE_CHECKING:
@@ -357,6 +358,9 @@ class OraclePolicy(Policy):
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
         above_grasp = _above(env, grasp if sideways is None else sideways[0], APPROACH_HEIGHT, hanging=0.0)
+        far = sideways is None and far_tool(env, job.obj, grasp)  # a heavy tool at the edge of the arm's reach
+        if far:
+            above_grasp = reachable_above(self, grasp, above_grasp)
         qpos = reach_over_clear(self, qpos, above_grasp, grasp if sideways is None else sideways[0], job.obj)
         if sideways is not None:
             qpos = self._move(qpos, sideways[0], f"descend beside '{job.obj}'")
@@ -367,6 +371,8 @@ class OraclePolicy(Policy):
             self._hold(qpos, 0.0, STEP_SETTLE_STEPS)
         qpos = self._move(qpos, grasp, f"descend to '{job.obj}'")
         self._hold(qpos, 1.0, GRIPPER_STEPS)
+        if far:  # drawn nearer the robot, just off the floor, where the arm can lift it
+            qpos, grasp = draw_nearer(self, qpos, grasp, job.obj)
         if job.onto is None and job.at is None and sideways is None:
             self._move(qpos, _raised(grasp, job.lift), f"lift '{job.obj}'")
             return
@@ -926,6 +932,8 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             fingers, body = _hand_clash(heights, xy, direction, z)
             if fingers > FINGER_CLASH_TOLERANCE and side_step(env, name, xy, direction, z, heights) is not None:
                 fingers = 0.0  # an overhang the hand comes in under from the side (oracle_overhang)
+            if tool and fingers > FINGER_CLASH_TOLERANCE:  # its widest part walled in (a drill's battery in a bin)
+                z, width, fingers, body = higher_hold(slab, direction, heights, xy, (z, width, fingers, body))
             cost = abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
             # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
