@@ -24,6 +24,7 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle_balance import balance_grasp, head_first_place
 from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_carry import held_spread, high_carry
 from robolab_ms.policies.oracle_handle import handle_grasp
@@ -352,7 +353,9 @@ class OraclePolicy(Policy):
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
-            spot = free_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
+            first = head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
+            spot = first if first is not None or not spread else free_place(env, job.obj, job.onto, grasp,
+                                                                            held_bottom, reachable)  # fmt: skip
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
@@ -881,6 +884,10 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
     part_only = not _hits(env, name, centre[:2], points[:, 2].max())
     tool = _tool(env, name, points) or _heavy(env, name)
+    if tool and closing is None:  # a heavy wide end (a ladle's bowl): by the handle beside it (oracle_balance)
+        balanced = balance_grasp(env, name, failed)
+        if balanced is not None:
+            return balanced
     if tool:  # held far from its mass centre it twists out of the pads
         mass_centre = _mass_centre(env, name)
         seen = _footprint_points(env, name, points)
