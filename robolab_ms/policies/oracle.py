@@ -31,6 +31,7 @@ from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
 from robolab_ms.policies.oracle_release import backed_off, settle_pose
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
+from robolab_ms.policies.oracle_pads import pads_snag
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 from robolab_ms.tasks.predicates import PREDICATES, per_object
 
@@ -63,6 +64,7 @@ BODY_CLASH_TOLERANCE = 0.08  # ... as long as it rises at most this far into the
 FINGER_CLASH_TOLERANCE = 0.03  # ... and at most this far into the space the open fingers sweep
 FINGER_SNAG = 0.005  # m: a neighbour rising this far into the open fingers' space may be pinched with the object,
 # so a grasp whose fingers clear every neighbour (and that fits between them) wins over the untouched one
+LONG_MAX_TURN = 60  # degrees: a light long object is closed on at most this far turned from across it
 WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is worth (a narrow hold is firm) ...
 FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
@@ -937,6 +939,9 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
             snag = not long and (fingers > FINGER_SNAG or width > MAX_GRASP_WIDTH)  # a utensil: across it, as before
+            if long and not tool:  # ... but moved or turned where that keeps the closing pads off a neighbour (a plate)
+                snag = width > MAX_GRASP_WIDTH or pads_snag(heights, xy, direction, z, width) or (
+                    closing is None and abs(GRASP_TURNS[turn_rank]) > LONG_MAX_TURN)  # not closing along it
             key = (blocked > 0.0, round(blocked, 3), snag, shift != 0.0 or turn_rank > 0, cost)  # others if blocked
             if failed:
                 key = (_near_failed(xy, direction, failed), *key)
