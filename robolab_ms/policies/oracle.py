@@ -64,7 +64,7 @@ BODY_CLASH_TOLERANCE = 0.08  # ... as long as it rises at most this far into the
 FINGER_CLASH_TOLERANCE = 0.03  # ... and at most this far into the space the open fingers sweep
 FINGER_SNAG = 0.005  # m: a neighbour rising this far into the open fingers' space may be pinched with the object,
 # so a grasp whose fingers clear every neighbour (and that fits between them) wins over the untouched one
-LONG_MAX_TURN = 60  # degrees: a light long object is closed on at most this far turned from across it
+LONG_MAX_TURN = 30  # degrees: a light long object is closed on at most this far turned from across it
 WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is worth (a narrow hold is firm) ...
 FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
