@@ -309,3 +309,78 @@ def test_oracle_plans_a_job_again_when_its_object_slips_out_of_the_hand():
         assert oracle._retries == {"banana": 1}
     finally:
         env.close()
+
+
+def test_a_ladle_is_held_by_the_handle_beside_its_bowl_and_let_go_bowl_first_over_the_pot():
+    """A ladle's deep bowl holds its mass centre and is as wide as the open fingers: the oracle closes on the
+    narrow handle a few centimetres from the mass centre instead, at the handle's middle height (also for the
+    ladle lying upside down, its handle held up off the table by the bowl), and lets it go over the pot with the
+    bowl over the floor and the ladle's middle inside the pot's rim."""
+    import gymnasium as gym
+    import numpy as np
+
+    from robolab_ms.catalog.procedural import quat_to_matrix
+    from robolab_ms.policies.oracle import _footprint_points, _mass_centre, _world_points, grasp_pose, object_bottom
+    from robolab_ms.policies.oracle_balance import BALANCE_NARROW, head_first_place, heavy_end
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("SpoonsInPot").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=0)
+        base = env.unwrapped
+        assert heavy_end(base, "red_serving_spoon") is None  # a light spoon: held as before
+        for name in ("ladle", "ladle_01"):
+            grasp = grasp_pose(base, name)
+            mass_centre, _, towards = heavy_end(base, name)
+            offset = grasp[:2] - mass_centre[:2]
+            assert 0.015 < float(offset @ towards) < 0.05  # on the handle side, near the balance point
+            points = _footprint_points(base, name, _world_points(base, name))  # its top, mapped by rays
+            closing = np.array([-towards[1], towards[0]])
+            slab = points[np.abs((points[:, :2] - grasp[:2]) @ towards) < 0.01]
+            assert float(np.ptp(slab[:, :2] @ closing)) < BALANCE_NARROW  # the pads close on the handle
+            assert grasp[2] > object_bottom(base, name) + 0.01
+        grasp = grasp_pose(base, "ladle")
+        held_bottom = grasp[2] - object_bottom(base, "ladle")
+        place, over = head_first_place(base, "ladle", "anza_medium", grasp, held_bottom, lambda over, pose: True)
+        pot = _world_points(base, "anza_medium")
+        centre = (pot[:, :2].max(axis=0) + pot[:, :2].min(axis=0)) / 2
+        radius = float(np.ptp(pot[:, :2], axis=0).min()) / 2  # the rim (the grips stick out along one side)
+        world_spin = quat_to_matrix(place[3:]) @ np.linalg.inv(quat_to_matrix(grasp[3:]))  # the hand's turn
+        assert abs(world_spin[2, 2] - 1.0) < 1e-6  # about the vertical only: the ladle stays level
+        mass_at = place[:2] + world_spin[:2, :2] @ (_mass_centre(base, "ladle")[:2] - grasp[:2])
+        middle = (_world_points(base, "ladle").max(axis=0) + _world_points(base, "ladle").min(axis=0))[:2] / 2
+        middle_at = place[:2] + world_spin[:2, :2] @ (middle - grasp[:2])
+        assert np.linalg.norm(mass_at - centre) < radius - 0.03 and np.linalg.norm(middle_at - centre) < radius
+        assert place[2] > pot[:, 2].max() and over[2] >= place[2]
+    finally:
+        env.close()
+
+
+def test_a_fork_beside_a_plate_is_grasped_where_the_closing_pads_miss_the_plate():
+    """The fork lies a centimetre or two from the small plate's edge (seed 1): closed on across its middle, the pad on that
+    side swings down onto the plate and pinches it; the oracle moves and turns the grasp (at most LONG_MAX_TURN
+    from across the fork) to where the pads' sweep is clear of the plate, where there is such a grasp."""
+    import gymnasium as gym
+    import numpy as np
+
+    from robolab_ms.catalog.procedural import quat_to_matrix
+    from robolab_ms.policies.oracle import LONG_MAX_TURN, _obstacle_heights, _world_points, grasp_pose
+    from robolab_ms.policies.oracle_pads import pads_snag
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("UtensilsInMug").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=1)
+        base = env.unwrapped
+        points = _world_points(base, "fork_big")
+        middle = (points.max(axis=0) + points.min(axis=0)) / 2
+        xy = points[:, :2] - points[:, :2].mean(axis=0)
+        across = np.linalg.eigh(xy.T @ xy)[1][:, 0]
+        heights = _obstacle_heights(base, "fork_big", middle[:2])
+        assert pads_snag(heights, middle[:2], across, 0.026, 0.025)  # across the middle: onto the plate
+        grasp = grasp_pose(base, "fork_big")
+        closing = quat_to_matrix(grasp[3:])[:2, 1]
+        assert not pads_snag(heights, grasp[:2], closing, grasp[2], 0.025)
+        assert abs(float(closing @ across)) >= np.cos(np.radians(LONG_MAX_TURN)) - 1e-6
+    finally:
+        env.close()

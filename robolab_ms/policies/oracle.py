@@ -24,12 +24,14 @@ from gymnasium import spaces
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle_balance import balance_grasp, head_first_place
 from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_carry import held_spread, high_carry
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
 from robolab_ms.policies.oracle_release import backed_off, settle_pose
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
+from robolab_ms.policies.oracle_pads import pads_snag
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 from robolab_ms.policies.oracle_tools import draw_nearer, far_tool, higher_hold, reachable_above
 from robolab_ms.tasks.predicates import PREDICATES, per_object
@@ -63,6 +65,7 @@ BODY_CLASH_TOLERANCE = 0.08  # ... as long as it rises at most this far into the
 FINGER_CLASH_TOLERANCE = 0.03  # ... and at most this far into the space the open fingers sweep
 FINGER_SNAG = 0.005  # m: a neighbour rising this far into the open fingers' space may be pinched with the object,
 # so a grasp whose fingers clear every neighbour (and that fits between them) wins over the untouched one
+LONG_MAX_TURN = 30  # degrees: a light long object is closed on at most this far turned from across it
 WIDTH_COST = 2.0  # m of shift that a metre more between the closed fingers is worth (a narrow hold is firm) ...
 FIRM_WIDTH = 0.05  # ... down to this width (narrower is no firmer: a thin handle or knob is no better a hold)
 TURN_COST = 0.005  # m of shift that a turn by one step of GRASP_TURNS is worth when choosing between grasps
@@ -353,7 +356,9 @@ class OraclePolicy(Policy):
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
-            spot = free_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
+            first = head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
+            spot = first if first is not None or not spread else free_place(env, job.obj, job.onto, grasp,
+                                                                            held_bottom, reachable)  # fmt: skip
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
@@ -887,6 +892,10 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     centre = (points.max(axis=0) + points.min(axis=0)) / 2
     part_only = not _hits(env, name, centre[:2], points[:, 2].max())
     tool = _tool(env, name, points) or _heavy(env, name)
+    if tool and closing is None:  # a heavy wide end (a ladle's bowl): by the handle beside it (oracle_balance)
+        balanced = balance_grasp(env, name, failed)
+        if balanced is not None:
+            return balanced
     if tool:  # held far from its mass centre it twists out of the pads
         mass_centre = _mass_centre(env, name)
         seen = _footprint_points(env, name, points)
@@ -938,6 +947,9 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
             snag = not long and (fingers > FINGER_SNAG or width > MAX_GRASP_WIDTH)  # a utensil: across it, as before
+            if long and not tool:  # ... but moved or turned where that keeps the closing pads off a neighbour (a plate)
+                snag = width > MAX_GRASP_WIDTH or pads_snag(heights, xy, direction, z, width) or (
+                    closing is None and abs(GRASP_TURNS[turn_rank]) > LONG_MAX_TURN)  # not closing along it
             key = (blocked > 0.0, round(blocked, 3), snag, shift != 0.0 or turn_rank > 0, cost)  # others if blocked
             if failed:
                 key = (_near_failed(xy, direction, failed), *key)
