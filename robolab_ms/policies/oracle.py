@@ -26,6 +26,7 @@ from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_carry import held_spread, high_carry
+from robolab_ms.policies.oracle_chord import chord_grasp
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
 from robolab_ms.policies.oracle_release import backed_off, settle_pose
@@ -946,6 +947,10 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         wall = wall_grasp(env, name, heights)
         if wall is not None:
             return wall
+    if closing is None and heights is not None and not tool and not part_only and not long:  # a can too wide
+        chord = chord_grasp(env, name, points, centre, directions, bottom, heights, list(failed))  # for the middle
+        if chord is not None:
+            xy, z, direction = chord
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
 
 
