@@ -29,7 +29,7 @@ from robolab_ms.policies.oracle_carry import held_spread, high_carry
 from robolab_ms.policies.oracle_chord import chord_grasp
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
-from robolab_ms.policies.oracle_release import backed_off, settle_pose
+from robolab_ms.policies.oracle_release import backed_off, settle_pose, turned_place
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 from robolab_ms.tasks.predicates import PREDICATES, per_object
@@ -354,6 +354,8 @@ class OraclePolicy(Policy):
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
             spot = free_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
+            if spread and spot is None:  # no spot reached with the hand as it grasped: turned about the vertical
+                spot = turned_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
@@ -1228,7 +1230,7 @@ def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
 
 def free_place(
     env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
-    reachable: Callable[[np.ndarray, np.ndarray], bool], first_pass: int = 0,
+    reachable: Callable[[np.ndarray, np.ndarray], bool], first_pass: int = 0, turns: tuple[float, ...] = (),
 ) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
     """A release pose of the TCP, and the pose above it that it is lowered from, that set `name` (held by `grasp`,
     not turned) down on a flat part of `onto` (a bin's floor, a plate) clear of what already lies there: the
@@ -1262,7 +1264,8 @@ def free_place(
     tool = _tool(env, name, held_points)
     passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (None, True), (False, True))
     for pass_index, (with_fingers, whole) in enumerate(passes[first_pass:], start=first_pass):
-        for turn in PLACE_TURNS if tool else PLACE_TURNS[:1]:  # only a long tool turns (a spoon fits as held)
+        for turn in turns or (PLACE_TURNS if tool else PLACE_TURNS[:1]):  # only a long tool turns (a spoon fits
+            # as held), unless `turns` are given (the hand turned by these degrees about the vertical)
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
             held = held_points @ spin[:2, :2].T
             quaternion = _matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))
@@ -1335,7 +1338,7 @@ def free_place(
             if float(np.linalg.norm(pose[:2])) <= edge - PLACE_REACH_MARGIN:
                 return reached(pose) or found
     if found is None and pass_index + 1 < len(passes):  # none of these in reach: less room (the fingers may touch)
-        return free_place(env, name, onto, grasp, held_bottom, reachable, first_pass=pass_index + 1)
+        return free_place(env, name, onto, grasp, held_bottom, reachable, first_pass=pass_index + 1, turns=turns)
     return found
 
 
