@@ -5,8 +5,8 @@ it, and the hand lifts it back out of the bin. A coffee can (11 cm) does not fit
 round, so a pair of pads moved sideways (along their own width) off the middle closes on a chord of the circle,
 narrower than its diameter: the hand is moved out until the widest chord between the pads leaves room inside the
 open fingers, and the pads' inner edges close on the can's side (friction holds the can, which the squeeze pushes
-gently out along the pads). Used only where no grasp of the object fits between the open fingers and its section is
-round: a box or a figurine is left to the ordinary grasp.
+gently out along the pads). Used only where no grasp of the object fits between the open fingers, its section is
+round and its sides are straight (a standing can): a box, a ball or a figurine is left to the ordinary grasp.
 """
 
 from __future__ import annotations
@@ -22,6 +22,8 @@ ROUNDNESS = 1.08  # a section whose widest spread is at most this many times its
 ROUND_DIRECTIONS = 24  # horizontal directions in which the spread is measured for roundness
 CHORD_STEP = 0.003  # m between the sideways shifts tried
 CHORD_ROOM = 0.002  # m the widest chord between the pads is narrower than MAX_GRASP_WIDTH (room on the way down)
+END_SHARE = 0.2  # the top and the bottom part of an object's height, whose widths are compared with the whole
+STRAIGHT_SHARE = 0.95  # a part at least this share of the whole width is as wide
 MIN_CHORD_SHARE = 0.6  # the chord held is at least this share of the diameter (the pads' edges keep a hold)
 
 
@@ -32,17 +34,29 @@ def round_section(points: np.ndarray) -> bool:
     return float(widths.max()) <= ROUNDNESS * float(widths.min())
 
 
+def straight_sided(points: np.ndarray) -> bool:
+    """Whether the object of `points` is as wide at its top and at its bottom as overall, within STRAIGHT_SHARE (a
+    standing can; not a ball or a fruit, whose width the pads meet only at one height, nor a bottle's neck)."""
+    low, high = points[:, 2].min(), points[:, 2].max()
+    overall = float(np.ptp(points[:, :2], axis=0).min())
+    for end in (points[:, 2] >= high - END_SHARE * (high - low), points[:, 2] <= low + END_SHARE * (high - low)):
+        if end.sum() < 2 or float(np.ptp(points[end, :2], axis=0).min()) < STRAIGHT_SHARE * overall:
+            return False
+    return True
+
+
 def chord_grasp(env: RoboLabEnv, name: str, points: np.ndarray, centre: np.ndarray, directions: list[np.ndarray],
                 bottom: float, heights, failed: list[np.ndarray]) -> tuple[np.ndarray, float, np.ndarray] | None:  # fmt: skip
     """(xy, z, closing) of a grasp of the round object `name` (world `points`, footprint middle `centre`) off its
     middle, where the widest chord between the pads (FINGER_HALF_WIDTH either side of their line; a circle of the
-    object's radius, as its surface points may be sparse) is CHORD_ROOM narrower than MAX_GRASP_WIDTH; None where the object is not round, a grasp through its middle fits, or no
-    chord does. Of the closing `directions` and the two sides, the one whose hand clears the neighbours best, then
-    the one away from grasps in `failed`, then the nearest to the robot (the arm reaches it most easily)."""
+    object's radius, as its surface points may be sparse) is CHORD_ROOM narrower than MAX_GRASP_WIDTH; None where
+    the object is no standing can (`round_section`, `straight_sided`), a grasp through its middle fits, or no chord
+    does. Of the closing `directions` and the two sides, the one whose hand clears the neighbours best, then the
+    one away from grasps in `failed`, then the nearest to the robot (the arm reaches it most easily)."""
     from robolab_ms.policies.oracle import (CLASH_COST, FINGER_HALF_WIDTH, MAX_GRASP_WIDTH, MIN_SLAB_POINTS,
                                             _grasp_height, _hand_clash, _near_failed)  # fmt: skip
 
-    if env.eval_context.entries[name].is_container or not round_section(points):
+    if env.eval_context.entries[name].is_container or not round_section(points) or not straight_sided(points):
         return None
     radius = float(np.linalg.norm(points[:, :2] - centre[:2], axis=1).max())
     best, best_key = None, None
