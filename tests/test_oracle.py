@@ -1,8 +1,8 @@
 """The oracle policy and task validation, sized for CI: a few episodes of BananaInBowl, MustardInLeftBin, RubiksCube
 and BananasOutOfBin, a mug held by its wall, a phone reached under an overhang, a measuring cup held by its handle,
 fixture scenes for stacking, standing a block up and standing a lying mug up, a lying jug stood up by its neck, a
-stack taken apart from the top, the shelf cover, a square box closed on across its faces, and a job planned again
-after its object slipped out of the hand."""
+stack taken apart from the top, the shelf cover, a square box closed on across its faces, a job planned again
+after its object slipped out of the hand, and a can as wide as the open fingers held off its middle."""
 
 import pytest
 from helpers import put
@@ -382,5 +382,35 @@ def test_a_fork_beside_a_plate_is_grasped_where_the_closing_pads_miss_the_plate(
         closing = quat_to_matrix(grasp[3:])[:2, 1]
         assert not pads_snag(heights, grasp[:2], closing, grasp[2], 0.025)
         assert abs(float(closing @ across)) >= np.cos(np.radians(LONG_MAX_TURN)) - 1e-6
+
+
+def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path):
+    """The tuna can (8.6 cm) is as wide as the open fingers: held through its middle, the opened pads still pressed
+    on it and lifted it back out of the bin. The oracle closes on a chord off its middle that fits between the open
+    fingers with room, and FoodPacking2Cans (a seed where the can used to stay in the hand) is solved."""
+    import numpy as np
+
+    from robolab_ms.policies.oracle import FINGER_HALF_WIDTH, MAX_GRASP_WIDTH, _world_points, grasp_pose
+    from robolab_ms.policies.oracle_chord import round_section
+
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("FoodPacking2Cans",), episodes=1, first_seed=2),
+                             tmp_path, show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success
+
+    import gymnasium as gym
+
+    env = gym.make("RoboLab-FoodPacking2Cans-v1", obs_mode="state_dict", render_backend="cpu")
+    try:
+        env.reset(seed=2)
+        base = env.unwrapped
+        base.eval_context.refresh()
+        points = _world_points(base, "tuna_can")
+        assert round_section(points)
+        grasp = grasp_pose(base, "tuna_can")
+        centre = (points.max(axis=0) + points.min(axis=0)) / 2
+        radius = np.linalg.norm(points[:, :2] - centre[:2], axis=1).max()
+        inner = np.linalg.norm(grasp[:2] - centre[:2]) - FINGER_HALF_WIDTH  # the pads' edge nearest the middle
+        assert 0.0 < inner < radius
+        assert 2 * np.sqrt(radius**2 - inner**2) <= MAX_GRASP_WIDTH
     finally:
         env.close()

@@ -27,9 +27,10 @@ from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle_balance import balance_grasp, head_first_place
 from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_carry import held_spread, high_carry
+from robolab_ms.policies.oracle_chord import chord_grasp
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
-from robolab_ms.policies.oracle_release import backed_off, settle_pose
+from robolab_ms.policies.oracle_release import backed_off, settle_pose, turned_place
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_pads import pads_snag
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
@@ -359,6 +360,8 @@ class OraclePolicy(Policy):
             first = head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
             spot = first if first is not None or not spread else free_place(env, job.obj, job.onto, grasp,
                                                                             held_bottom, reachable)  # fmt: skip
+            if spread and spot is None:  # no spot reached with the hand as it grasped: turned about the vertical
+                spot = turned_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
@@ -966,6 +969,10 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
         wall = wall_grasp(env, name, heights)
         if wall is not None:
             return wall
+    if closing is None and heights is not None and not tool and not part_only and not long:  # a can too wide
+        chord = chord_grasp(env, name, points, centre, directions, bottom, heights, list(failed))  # for the middle
+        if chord is not None:
+            xy, z, direction = chord
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(direction, keep_sign)])
 
 
@@ -1260,7 +1267,7 @@ def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
 
 def free_place(
     env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
-    reachable: Callable[[np.ndarray, np.ndarray], bool], first_pass: int = 0,
+    reachable: Callable[[np.ndarray, np.ndarray], bool], first_pass: int = 0, turns: tuple[float, ...] = (),
 ) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
     """A release pose of the TCP, and the pose above it that it is lowered from, that set `name` (held by `grasp`,
     not turned) down on a flat part of `onto` (a bin's floor, a plate) clear of what already lies there: the
@@ -1294,7 +1301,8 @@ def free_place(
     tool = _tool(env, name, held_points)
     passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (None, True), (False, True))
     for pass_index, (with_fingers, whole) in enumerate(passes[first_pass:], start=first_pass):
-        for turn in PLACE_TURNS if tool else PLACE_TURNS[:1]:  # only a long tool turns (a spoon fits as held)
+        for turn in turns or (PLACE_TURNS if tool else PLACE_TURNS[:1]):  # only a long tool turns (a spoon fits
+            # as held), unless `turns` are given (the hand turned by these degrees about the vertical)
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
             held = held_points @ spin[:2, :2].T
             quaternion = _matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))
@@ -1367,7 +1375,7 @@ def free_place(
             if float(np.linalg.norm(pose[:2])) <= edge - PLACE_REACH_MARGIN:
                 return reached(pose) or found
     if found is None and pass_index + 1 < len(passes):  # none of these in reach: less room (the fingers may touch)
-        return free_place(env, name, onto, grasp, held_bottom, reachable, first_pass=pass_index + 1)
+        return free_place(env, name, onto, grasp, held_bottom, reachable, first_pass=pass_index + 1, turns=turns)
     return found
 
 

@@ -66,3 +66,18 @@ def settle_pose(env: RoboLabEnv, name: str, grasp: np.ndarray) -> np.ndarray:
     pose = grasp.copy()
     pose[2] = max(grasp[2], float(_world_points(env, name)[:, 2].max()) + PAD_BELOW_TCP + SETTLE_CLEARANCE)
     return pose
+
+
+def turned_place(env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
+                 reachable: Callable[[np.ndarray, np.ndarray], bool]) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    """`free_place` with the hand turned about the vertical, by the oracle's PLACE_TURNS in turn (the least turn
+    first), for a held object that no free spot of `onto` takes with the hand as it grasped: near the edge of the
+    arm's reach the wrist's turn decides whether a pose is reached at all. The first release pose and the pose
+    above it that is reached; None where no turn has one."""
+    from robolab_ms.policies.oracle import PLACE_TURNS, free_place
+
+    for turn in PLACE_TURNS[1:]:
+        spot = free_place(env, name, onto, grasp, held_bottom, reachable, turns=(turn,))
+        if spot is not None:
+            return spot
+    return None
