@@ -382,6 +382,8 @@ def test_a_fork_beside_a_plate_is_grasped_where_the_closing_pads_miss_the_plate(
         closing = quat_to_matrix(grasp[3:])[:2, 1]
         assert not pads_snag(heights, grasp[:2], closing, grasp[2], 0.025)
         assert abs(float(closing @ across)) >= np.cos(np.radians(LONG_MAX_TURN)) - 1e-6
+    finally:
+        env.close()
 
 
 def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path):
