@@ -357,11 +357,11 @@ class OraclePolicy(Policy):
         if job.onto is not None or job.at is not None:  # planned before the grasp, which holds the object as it is
             spread = job.onto is not None and not job.centred  # onto a free spot of a bin's floor or a plate
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
-            first = head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable) if spread else None
-            spot = first if first is not None or not spread else free_place(env, job.obj, job.onto, grasp,
-                                                                            held_bottom, reachable)  # fmt: skip
-            if spread and spot is None:  # no spot reached with the hand as it grasped: turned about the vertical
-                spot = turned_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
+            spot = None
+            if spread:  # a ladle bowl-first; else a free spot with the hand as grasped, else turned about the vertical
+                spot = (head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
+                        or free_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
+                        or turned_place(env, job.obj, job.onto, grasp, held_bottom, reachable))  # fmt: skip
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
