@@ -1,7 +1,7 @@
 """The oracle's chord grasp: a round object as wide as the open fingers, or wider, held off its middle.
 
 A tuna can (8.6 cm) is as wide as the open fingers' gap: grasped through its middle, the opened pads still press on
-it, and the hand lifts it back out of the bin. A coffee can (11 cm) does not fit between them at all. Both are
+it, and the hand lifts it back out of the bin. A coffee can (10.2 cm) does not fit between them at all. Both are
 round, so a pair of pads moved sideways (along their own width) off the middle closes on a chord of the circle,
 narrower than its diameter: the hand is moved out until the widest chord between the pads leaves room inside the
 open fingers, and the pads' inner edges close on the can's side (friction holds the can, which the squeeze pushes
