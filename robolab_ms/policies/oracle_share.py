@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 
 SUPPORT_INSET = 0.03  # m: every point this near an object's middle lies over the flat top (it rests, not tips)
 SHARE_MARGIN = 0.025  # m kept between an object's outline (with its open fingers) and another's
-SHARED_AREA = 0.45  # the objects' footprints cover at least this share of the top: it is small for them
+SHARED_AREA = 0.8  # the objects' footprints (x, y boxes) cover at least this share of the top: it is small for them
 CARRY_CLEARANCE = 0.06  # m between the held object's bottom, where it is carried in, and the top of what is there
 SHARE_TRIES = 12  # pairs of spots tried for reach, best first
 _OCTAGON = np.array([[np.cos(a), np.sin(a)] for a in np.linspace(0.0, 2 * np.pi, 8, endpoint=False)])
