@@ -416,3 +416,11 @@ def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path)
         assert 2 * np.sqrt(radius**2 - inner**2) <= MAX_GRASP_WIDTH
     finally:
         env.close()
+
+
+def test_oracle_leaves_room_for_the_second_carton_on_a_small_box_top(tmp_path):
+    """Two cartons onto a closed box's 16-cm top: the standing milk carton set in the middle leaves the lying
+    juice carton no room (it is knocked off or falls); spots planned together put both on (seed 9 failed so)."""
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("RecycleCartonsOnBox",), episodes=1,
+                                                               first_seed=9), tmp_path, show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success

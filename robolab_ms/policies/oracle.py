@@ -33,6 +33,7 @@ from robolab_ms.policies.oracle_lying import lying_container, stand_before_movin
 from robolab_ms.policies.oracle_release import backed_off, settle_pose, turned_place
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_pads import pads_snag
+from robolab_ms.policies.oracle_share import shared_spot
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 from robolab_ms.policies.oracle_tools import draw_nearer, far_tool, higher_hold, reachable_above
 from robolab_ms.tasks.predicates import PREDICATES, per_object
@@ -359,7 +360,8 @@ class OraclePolicy(Policy):
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
             spot = None
             if spread:  # a ladle bowl-first; else a free spot with the hand as grasped, else turned about the vertical
-                spot = (head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
+                spot = (shared_spot(self, job, grasp, held_bottom, reachable)
+                        or head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
                         or free_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
                         or turned_place(env, job.obj, job.onto, grasp, held_bottom, reachable))  # fmt: skip
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
