@@ -30,8 +30,8 @@ END_MARGIN = 0.025  # ... and in from the handle's end
 SIDE_REACH = 0.09  # m beside the handle (level, across it) the hand needs free of other objects ...
 SIDE_HEIGHT = 0.04  # ... within this far above or below the handle's axis ...
 SIDE_ALONG = 0.04  # ... and this far either way along it
-GRIP_PAST = 0.004  # m the TCP goes past the handle's axis, so that the pads close on it at their middle
-APPROACH_DISTANCE = 0.10  # m from the grip, level and across the handle, where the hand starts its way in
+GRIP_PAST = -0.004  # m the TCP goes past the handle's axis (short of it: the fingertips, 1 cm past the TCP, stay off a neighbour)
+APPROACH_DISTANCES = (0.10, 0.07, 0.05)  # m from the grip, level across the handle, where the hand starts in
 LIFT_CLEARANCE = 0.03  # m the held tool, hanging straight down from the grip, is lifted above the container
 LIFT_MIN = 0.15  # m the held tool is lifted at least
 BACK_OUT = 0.08  # m the hand backs out along its approach after letting go
@@ -171,8 +171,7 @@ def side_hold_job(policy: OraclePolicy, job: Job) -> bool:
     """Plan `job` (onto the table or into a container) with a side hold of its object's handle, where the object
     is a long tool packed in a container with its handle reaching out (`side_grips`); whether it was planned.
     The next of the holds is used each time the job is planned again."""
-    from robolab_ms.policies.oracle import (GRIPPER_STEPS, OracleFailure, _centre, _world_points, object_bottom,
-                                            place_pose)  # fmt: skip
+    from robolab_ms.policies.oracle import OracleFailure
 
     env = policy.env
     if job.at is None and job.onto is None:
@@ -188,8 +187,27 @@ def side_hold_job(policy: OraclePolicy, job: Job) -> bool:
     if not grips:
         return False
     tried = policy._grasps.setdefault(job.obj, [])
-    grasp, approach = grips[min(len(tried), len(grips) - 1)]
-    tried.append(grasp)
+    first = min(len(tried), len(grips) - 1)
+    for grasp, approach in grips[first:] + grips[:first]:  # the next hold each time the job is planned again
+        planned = len(policy.actions)
+        try:
+            _plan_side_hold(policy, job, grasp, approach)
+        except OracleFailure:
+            while len(policy.actions) > planned:
+                policy.actions.pop()
+            continue
+        tried.append(grasp)
+        return True
+    tried.append(grips[first][0])
+    raise OracleFailure(f"cannot hold '{job.obj}' by its handle from the side: no motion plan for any hold")
+
+
+def _plan_side_hold(policy: OraclePolicy, job: Job, grasp: np.ndarray, approach: np.ndarray) -> None:
+    """Queue the moves of `job` with its object held at TCP pose `grasp`, the hand coming in along `approach`."""
+    from robolab_ms.policies.oracle import (GRIPPER_STEPS, OracleFailure, _centre, _world_points, object_bottom,
+                                            place_pose)  # fmt: skip
+
+    env = policy.env
     held_bottom = grasp[2] - object_bottom(env, job.obj)
     held_offset = grasp[:2] - _centre(env, job.obj)[:2]
     place, _ = place_pose(env, job, grasp, held_bottom, held_offset)
@@ -198,10 +216,16 @@ def side_hold_job(policy: OraclePolicy, job: Job) -> bool:
     lifted = grasp.copy()
     hanging = float(np.linalg.norm(_world_points(env, job.obj) - grasp[:3], axis=1).max())  # should it swing down
     lifted[2] = max(grasp[2] + LIFT_MIN, beneath + LIFT_CLEARANCE + hanging)
-    start = grasp.copy()
-    start[:3] -= approach * APPROACH_DISTANCE
     qpos = policy._planner_qpos()
-    qpos = policy._move(qpos, start, f"reach beside the handle of '{job.obj}'", straight=False)
+    for distance in APPROACH_DISTANCES:
+        start = grasp.copy()
+        start[:3] -= approach * distance
+        try:
+            qpos = policy._move(qpos, start, f"reach beside the handle of '{job.obj}'", straight=False)
+            break
+        except OracleFailure:
+            if distance == APPROACH_DISTANCES[-1]:
+                raise
     qpos = policy._move_straight(qpos, grasp, f"move in around the handle of '{job.obj}'")
     policy._hold(qpos, 1.0, GRIPPER_STEPS)
     qpos, lifted = _rise(policy, qpos, grasp, lifted[2], f"lift '{job.obj}' by its handle")
