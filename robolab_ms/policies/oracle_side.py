@@ -220,6 +220,16 @@ def _plan_side_hold(policy: OraclePolicy, job: Job, grasp: np.ndarray, approach:
     for distance in APPROACH_DISTANCES:
         start = grasp.copy()
         start[:3] -= approach * distance
+        high = start.copy()
+        high[2] = lifted[2]
+        planned = len(policy.actions)
+        try:  # down from the height of the lift, so that the arm is posed to lift the tool straight back up
+            qpos = policy._move(qpos, high, f"reach above beside the handle of '{job.obj}'", straight=False)
+            qpos, _ = _rise(policy, qpos, high, start[2], f"reach beside the handle of '{job.obj}'")
+            break
+        except OracleFailure:
+            while len(policy.actions) > planned:
+                policy.actions.pop()
         try:
             qpos = policy._move(qpos, start, f"reach beside the handle of '{job.obj}'", straight=False)
             break
@@ -253,13 +263,14 @@ def _plan_side_hold(policy: OraclePolicy, job: Job, grasp: np.ndarray, approach:
 
 
 RISE_STEP = 0.04  # m per straight move of a lift
+MAX_SWING = 0.6  # rad any joint may turn in one step of a lift that is not a straight move, once it has risen LIFT_MIN
 
 
 def _rise(policy: OraclePolicy, qpos: np.ndarray, pose: np.ndarray, height: float,
           what: str) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Queue a move of the TCP from `pose` straight up or down to `height`, in steps of RISE_STEP (each a straight
-    move where one is found, else any move to it; a lift stops short where it has risen LIFT_MIN and no straight
-    move goes higher); returns the final joints and TCP pose."""
+    move where one is found, else any move to it; a lift stops short where it has risen LIFT_MIN and the next step
+    would swing a joint by more than MAX_SWING); returns the final joints and TCP pose."""
     from robolab_ms.policies.oracle import OracleFailure
 
     step, sign = pose.copy(), 1.0 if height >= pose[2] else -1.0
@@ -269,7 +280,11 @@ def _rise(policy: OraclePolicy, qpos: np.ndarray, pose: np.ndarray, height: floa
         try:
             qpos = policy._move_straight(qpos, step, what)
         except OracleFailure:
-            if sign > 0 and previous[2] - pose[2] >= LIFT_MIN:  # high enough: no swing of the arm to go higher
+            planned = len(policy.actions)
+            moved = policy._move(qpos, step, what)
+            if sign > 0 and previous[2] - pose[2] >= LIFT_MIN and np.abs(moved[:7] - qpos[:7]).max() > MAX_SWING:
+                while len(policy.actions) > planned:  # high enough: no swing of the arm to go higher
+                    policy.actions.pop()
                 return qpos, previous
-            qpos = policy._move(qpos, step, what)
+            qpos = moved
     return qpos, step
