@@ -1,13 +1,14 @@
-"""The oracle's side hold of a long tool by the part of its handle that sticks out of a container, where the tool
-lies packed among others (hammers side by side in a bin, millimetres apart).
+"""The oracle's side hold of a long tool by the part of its handle that reaches out of the container it lies in
+(hammers side by side in a bin, millimetres apart, their handles over the bin's front wall).
 
-A top-down hold across such a handle lands a finger on the neighbour, and the head at the back of the bin may be
-out of reach from above. Where the handle (the tool's longest box-shaped collision part) reaches out over the
-container's wall, the hand comes in level from the side of the handle that nothing occupies, its fingers open
-above and below the handle and closing across it in the vertical plane through the handle's axis: held so, the
-tool's weight presses the handle into the pads' length rather than turning it between them. The tool is lifted
-straight up until it clears what lies under it, carried with straight moves (a sampled path may swing the held
-tool), set down and let go, and the hand backs out the way it came.
+A top-down hold across a packed handle lands a finger on the neighbour, and the head at the back of the bin may be
+out of reach from above. Where the handle (the tool's longest thin box-shaped collision part) reaches out over the
+container's wall, the hand comes in level from a side of the handle where no other object lies, its fingers open
+above and below the handle and closing across it in the vertical plane through the handle's axis. A tool walled in
+on both sides waits until a neighbour has been taken away. The hand comes down beside the handle from the height
+the tool will be lifted to (so that the arm is posed to lift it straight back up), the tool is lifted in straight
+steps until it would clear the container hanging straight down from the grip, carried level, lowered and let go,
+and the hand backs out the way it came.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
 
 HANDLE_RATIO = 4.0  # a handle is a box this many times as long as its thickest cross-section ...
 HANDLE_THICKNESS = 0.04  # ... and no thicker than this (m), so that the open fingers close across it
-PACKED_GAP = 0.01  # m: a neighbour this close to the handle's side blocks a finger beside it
+PACKED_GAP = 0.01  # m: a neighbour this close beside the handle (any way along it) blocks that side
 OVERHANG_MIN = 0.06  # m of the handle (along it) that must reach out of the container's footprint
 WALL_MARGIN = 0.03  # m (along the handle) the grip stays out from the container's wall ...
 END_MARGIN = 0.025  # ... and in from the handle's end
@@ -169,8 +170,9 @@ def side_grips(env: RoboLabEnv, name: str, fits: bool = False) -> list[tuple[np.
 
 def side_hold_job(policy: OraclePolicy, job: Job) -> bool:
     """Plan `job` (onto the table or into a container) with a side hold of its object's handle, where the object
-    is a long tool packed in a container with its handle reaching out (`side_grips`); whether it was planned.
-    The next of the holds is used each time the job is planned again."""
+    is a long tool in a container with its handle reaching out (`side_grips`); where both sides of it are taken,
+    the first later job whose object has a free side is planned instead and `job` goes to the back of the queue.
+    Whether a job was planned; the next of the holds comes first each time the job is planned again."""
     from robolab_ms.policies.oracle import OracleFailure
 
     env = policy.env
