@@ -184,10 +184,23 @@ def side_hold_job(policy: OraclePolicy, job: Job) -> bool:
         if later is not None:
             policy.jobs.remove(later)
             policy.jobs.append(job)
-            job = policy._job = later
-            grips = side_grips(env, job.obj)
+            policy._job = later
+            try:
+                return _side_hold(policy, later, side_grips(env, later.obj))
+            except OracleFailure:  # the caller queues `job` again; `later` waits its turn, its retries unused
+                policy.jobs.remove(job)
+                policy.jobs.append(later)
+                raise
     if not grips:
         return False
+    return _side_hold(policy, job, grips)
+
+
+def _side_hold(policy: OraclePolicy, job: Job, grips: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+    """Plan `job` with the first of `grips` (side holds, `side_grips`) that has a motion plan, starting after the
+    holds its earlier plans used; True, or OracleFailure where none has."""
+    from robolab_ms.policies.oracle import OracleFailure
+
     tried = policy._grasps.setdefault(job.obj, [])
     first = min(len(tried), len(grips) - 1)
     for grasp, approach in grips[first:] + grips[:first]:  # the next hold each time the job is planned again
