@@ -348,7 +348,7 @@ class OraclePolicy(Policy):
         if not env.scene.gpu_sim_enabled and covered(env, job.obj):  # on a shelf level under another
             self._plan_front_job(job)
             return
-        if side_hold_job(self, job):  # a long tool packed among others in a bin, held by its handle from the side
+        if side_hold_job(self, job):  # a long tool in a bin, its handle out over the wall: held there from the side
             return
         failed = self._grasps.setdefault(job.obj, [])
         grasp = grasp_pose(env, job.obj, failed=failed)

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from robolab_ms.catalog.procedural import quat_to_matrix
+
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
     from robolab_ms.policies.oracle import Job, OraclePolicy
@@ -31,7 +33,7 @@ END_MARGIN = 0.025  # ... and in from the handle's end
 SIDE_REACH = 0.09  # m beside the handle (level, across it) the hand needs free of other objects ...
 SIDE_HEIGHT = 0.04  # ... within this far above or below the handle's axis ...
 SIDE_ALONG = 0.04  # ... and this far either way along it
-GRIP_PAST = -0.004  # m the TCP goes past the handle's axis (short of it: the fingertips, 1 cm past the TCP, stay off a neighbour)
+GRIP_PAST = -0.004  # m the TCP goes past the handle's axis (short: the fingertips, 1 cm on, stay off a neighbour)
 APPROACH_DISTANCES = (0.10, 0.07, 0.05)  # m from the grip, level across the handle, where the hand starts in
 LIFT_CLEARANCE = 0.03  # m the held tool, hanging straight down from the grip, is lifted above the container
 LIFT_MIN = 0.15  # m the held tool is lifted at least
@@ -61,8 +63,6 @@ def _handle(env: RoboLabEnv, name: str) -> tuple[np.ndarray, np.ndarray, float, 
         return None
     shape, axis, half = best
     pose = actor.pose.sp * shape.local_pose
-    from robolab_ms.catalog.procedural import quat_to_matrix
-
     direction = quat_to_matrix(np.asarray(pose.q))[:, axis]
     centre = np.asarray(pose.p, dtype=float)
     if float((_mass_centre(env, name) - centre) @ direction) < 0:  # from the free end towards the tool's mass
@@ -102,8 +102,6 @@ def _solid_points(env: RoboLabEnv, name: str) -> np.ndarray:
         axes = [np.linspace(-h, h, max(2, int(np.ceil(2 * h / SAMPLE_STEP)) + 1)) for h in np.asarray(half, float)]
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
         pose = actor.pose.sp * shape.local_pose
-        from robolab_ms.catalog.procedural import quat_to_matrix
-
         pieces.append(grid @ quat_to_matrix(np.asarray(pose.q)).T + np.asarray(pose.p))
     return np.concatenate(pieces)
 
@@ -155,7 +153,8 @@ def side_grips(env: RoboLabEnv, name: str, fits: bool = False) -> list[tuple[np.
             along = rel @ direction
             lateral = rel @ -approach  # how far on the side the hand comes from
             height = rel @ closing
-            near_hand = (np.abs(along) < SIDE_ALONG) & (lateral > 0) & (lateral < SIDE_REACH) & (np.abs(height) < SIDE_HEIGHT)
+            near_hand = ((np.abs(along) < SIDE_ALONG) & (lateral > 0) & (lateral < SIDE_REACH)
+                         & (np.abs(height) < SIDE_HEIGHT))  # fmt: skip
             beside = ((along > -SIDE_ALONG) & (along < length - t) & (lateral > 0)
                       & (lateral < 2 * radius + 2 * PACKED_GAP) & (np.abs(height) < 2 * radius))  # fmt: skip
             blocked = near_hand | beside
@@ -227,10 +226,10 @@ def _plan_side_hold(policy: OraclePolicy, job: Job, grasp: np.ndarray, approach:
     held_offset = grasp[:2] - _centre(env, job.obj)[:2]
     place, _ = place_pose(env, job, grasp, held_bottom, held_offset)
     container = _container_below(env, job.obj)
-    beneath = float(_world_points(env, container)[:, 2].max()) if container is not None else 0.0
+    rim = float(_world_points(env, container)[:, 2].max()) if container is not None else 0.0
     lifted = grasp.copy()
     hanging = float(np.linalg.norm(_world_points(env, job.obj) - grasp[:3], axis=1).max())  # should it swing down
-    lifted[2] = max(grasp[2] + LIFT_MIN, beneath + LIFT_CLEARANCE + hanging)
+    lifted[2] = max(grasp[2] + LIFT_MIN, rim + LIFT_CLEARANCE + hanging)
     qpos = policy._planner_qpos()
     for distance in APPROACH_DISTANCES:
         start = grasp.copy()
@@ -278,7 +277,7 @@ def _plan_side_hold(policy: OraclePolicy, job: Job, grasp: np.ndarray, approach:
 
 
 RISE_STEP = 0.04  # m per straight move of a lift
-MAX_SWING = 0.6  # rad any joint may turn in one step of a lift that is not a straight move, once it has risen LIFT_MIN
+MAX_SWING = 0.6  # rad a joint may turn in a lift's step that is not a straight move, once it has risen LIFT_MIN
 
 
 def _rise(policy: OraclePolicy, qpos: np.ndarray, pose: np.ndarray, height: float,
