@@ -31,6 +31,7 @@ from robolab_ms.policies.oracle_chord import chord_grasp
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
 from robolab_ms.policies.oracle_release import backed_off, settle_pose, turned_place
+from robolab_ms.policies.oracle_side import side_hold_job
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_pads import pads_snag
 from robolab_ms.policies.oracle_share import shared_spot
@@ -347,6 +348,8 @@ class OraclePolicy(Policy):
             return
         if not env.scene.gpu_sim_enabled and covered(env, job.obj):  # on a shelf level under another
             self._plan_front_job(job)
+            return
+        if side_hold_job(self, job):  # a long tool in a bin, its handle out over the wall: held there from the side
             return
         failed = self._grasps.setdefault(job.obj, [])
         grasp = grasp_pose(env, job.obj, failed=failed)
