@@ -2,7 +2,8 @@
 and BananasOutOfBin, a mug held by its wall, a phone reached under an overhang, a measuring cup held by its handle,
 fixture scenes for stacking, standing a block up and standing a lying mug up, a lying jug stood up by its neck, a
 stack taken apart from the top, the shelf cover, a square box closed on across its faces, a job planned again
-after its object slipped out of the hand, and a can as wide as the open fingers held off its middle."""
+after its object slipped out of the hand, a can as wide as the open fingers held off its middle, and all the
+fruits set onto a plate largest first."""
 
 import pytest
 from helpers import put
@@ -424,3 +425,20 @@ def test_oracle_leaves_room_for_the_second_carton_on_a_small_box_top(tmp_path):
     results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("RecycleCartonsOnBox",), episodes=1,
                                                                first_seed=9), tmp_path, show_progress=False)  # fmt: skip
     assert results[0].error is None and results[0].success
+
+
+def test_all_fruits_go_onto_the_plate_largest_first_and_three_of_them_in_task_order():
+    from robolab_ms.envs import RoboLabEnv
+    from robolab_ms.policies.oracle import jobs_for
+
+    orders = {}
+    for task in ("FruitsOnPlate", "FruitsOnPlate3"):
+        env = RoboLabEnv(task=task, obs_mode="state_dict", render_backend="cpu")
+        env.reset(seed=0)
+        env.eval_context.refresh()
+        orders[task] = [job.obj for job in jobs_for(env)]
+        env.close()
+    assert orders["FruitsOnPlate"][0] == "pomegranate01"  # the largest, while the plate is still empty
+    assert sorted(orders["FruitsOnPlate"]) == sorted(["lemon_01", "lemon_02", "lime01", "lime01_01", "orange_01",
+                                                      "orange_02", "pomegranate01"])  # fmt: skip
+    assert orders["FruitsOnPlate3"] == ["lemon_01", "lemon_02", "lime01"]  # three of seven: as the task lists them

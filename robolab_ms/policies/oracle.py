@@ -170,6 +170,8 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
     predicate, references, params = condition.predicate, condition.references, condition.params
     if predicate in ("in_container", "enclosed", "on_top", "on_center", "placed_in_container_in_order"):
         reference = next(iter(references.values()))
+        if predicate in ("on_top", "on_center") and condition.logical == "all" and len(objects) > 2:
+            objects = _largest_first(env, objects)  # all of many onto a plate: the last, largest one finds no room
         return [Job(name, onto=reference, upright=lying_container(env, name)) for name in objects]
     if predicate == "groups_in_containers":
         home = {name: container for container, members in params["groups"].items() for name in members}
@@ -210,6 +212,13 @@ def job_done(env: RoboLabEnv, job: Job) -> bool:
         return True
     holds = per_object(env.eval_context, condition)
     return bool(holds[0, list(condition.objects).index(job.obj)])
+
+
+def _largest_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
+    """`objects` by the area of their footprint (x, y box as they lie now), largest first; equal ones keep their
+    order."""
+    areas = {name: float(np.prod(np.ptp(_world_points(env, name)[:, :2], axis=0))) for name in objects}
+    return sorted(objects, key=lambda name: -areas[name])
 
 
 def _top_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
