@@ -2,16 +2,14 @@
 middle of the open fingers. The candidate grasps of `oracle.grasp_pose` move the hand along its own width, so one
 turned from across the object and moved along it can put the handle next to a pad (measured on the object's few
 hull corners, the part looks centred): that pad reaches the handle first, pushes it across the table and turns it
-before the other closes, and the lifted spoon slips out of the closed hand. Only where the chosen grasp is off the
-part, measured on the object's ray-cast top, is a grasp chosen again among ones moved along the object's long axis
-and centred between the pads.
+before the other closes, and the lifted spoon slips out of the closed hand. Only where an open finger of the chosen
+grasp comes down on the part, measured on the object's ray-cast top, is a grasp chosen again among ones moved along
+the object's long axis and centred between the pads.
 """
 
 from __future__ import annotations
 
 import numpy as np
-
-CENTRING_TOLERANCE = 0.01  # m: a part this far or less from the middle of the open fingers counts as centred
 
 
 def band_offset(footprint: np.ndarray, xy: np.ndarray, closing: np.ndarray) -> tuple[float, float] | None:
@@ -29,12 +27,16 @@ def band_offset(footprint: np.ndarray, xy: np.ndarray, closing: np.ndarray) -> t
 
 
 def off_part(footprint: np.ndarray | None, xy: np.ndarray, closing: np.ndarray) -> bool:
-    """Whether the part between fingers at `xy` closing along `closing` lies more than CENTRING_TOLERANCE off
-    their middle (False where it cannot be measured)."""
+    """Whether an open finger of a grasp at `xy` closing along `closing` comes down on the object seen from above
+    as `footprint`: its part between the fingers reaches past a finger's outer face (False where it cannot be
+    measured)."""
+    from robolab_ms.policies import oracle
+
     if footprint is None:
         return False
-    measured = band_offset(footprint, xy, closing / np.linalg.norm(closing))
-    return measured is not None and abs(measured[0]) > CENTRING_TOLERANCE
+    closing = closing / np.linalg.norm(closing)
+    measured = band_offset(footprint, xy, closing)
+    return measured is not None and abs(measured[0]) + measured[1] / 2 > oracle.OPEN_FINGER_REACH
 
 
 def centred_grasp(footprint: np.ndarray, directions: list[np.ndarray], bottom: float,
