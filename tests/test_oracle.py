@@ -424,3 +424,29 @@ def test_oracle_leaves_room_for_the_second_carton_on_a_small_box_top(tmp_path):
     results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("RecycleCartonsOnBox",), episodes=1,
                                                                first_seed=9), tmp_path, show_progress=False)  # fmt: skip
     assert results[0].error is None and results[0].success
+
+
+def test_a_wooden_spoon_beside_oranges_is_grasped_with_its_handle_between_the_pads(tmp_path):
+    """WoodSpatulaToBowl at seed 2: the grasp turned away from the oranges once put the spoon's thin handle under an
+    open finger, which pushed it aside and let it slip out after the lift. The chosen grasp has the part between
+    the fingers centred and clear of both fingers, and the oracle puts the spoon in the bowl."""
+    import gymnasium as gym
+
+    from robolab_ms.policies.oracle import OPEN_FINGER_GAP, _footprint_points, _world_points, grasp_pose
+    from robolab_ms.policies.oracle_centred import band_offset
+    from robolab_ms.catalog.procedural import quat_to_matrix
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("WoodSpatulaToBowl").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=2)
+        spoon = env.unwrapped
+        grasp = grasp_pose(spoon, "wooden_spoons")
+        seen = _footprint_points(spoon, "wooden_spoons", _world_points(spoon, "wooden_spoons"))
+        offset, width = band_offset(seen, grasp[:2], quat_to_matrix(grasp[3:])[:2, 1])
+        assert abs(offset) < 0.01 and abs(offset) + width / 2 < OPEN_FINGER_GAP / 2
+    finally:
+        env.close()
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("WoodSpatulaToBowl",), episodes=1, first_seed=2),
+                             tmp_path, show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success
