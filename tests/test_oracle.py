@@ -442,3 +442,29 @@ def test_all_fruits_go_onto_the_plate_largest_first_and_three_of_them_in_task_or
     assert sorted(orders["FruitsOnPlate"]) == sorted(["lemon_01", "lemon_02", "lime01", "lime01_01", "orange_01",
                                                       "orange_02", "pomegranate01"])  # fmt: skip
     assert orders["FruitsOnPlate3"] == ["lemon_01", "lemon_02", "lime01"]  # three of seven: as the task lists them
+
+
+def test_a_wooden_spoon_beside_oranges_is_grasped_with_its_handle_between_the_pads(tmp_path):
+    """WoodSpatulaToBowl at seed 2: the grasp turned away from the oranges once put the spoon's thin handle under an
+    open finger, which pushed it aside and let it slip out after the lift. The chosen grasp has the part between
+    the fingers centred and clear of both fingers, and the oracle puts the spoon in the bowl."""
+    import gymnasium as gym
+
+    from robolab_ms.policies.oracle import OPEN_FINGER_GAP, _footprint_points, _world_points, grasp_pose
+    from robolab_ms.policies.oracle_centred import band_offset
+    from robolab_ms.catalog.procedural import quat_to_matrix
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("WoodSpatulaToBowl").env_id, obs_mode="state_dict")
+    try:
+        env.reset(seed=2)
+        spoon = env.unwrapped
+        grasp = grasp_pose(spoon, "wooden_spoons")
+        seen = _footprint_points(spoon, "wooden_spoons", _world_points(spoon, "wooden_spoons"))
+        offset, width = band_offset(seen, grasp[:2], quat_to_matrix(grasp[3:])[:2, 1])
+        assert abs(offset) < 0.01 and abs(offset) + width / 2 < OPEN_FINGER_GAP / 2
+    finally:
+        env.close()
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("WoodSpatulaToBowl",), episodes=1, first_seed=2),
+                             tmp_path, show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success

@@ -27,6 +27,7 @@ from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle_balance import balance_grasp, head_first_place
 from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_carry import held_spread, high_carry
+from robolab_ms.policies.oracle_centred import centred_grasp, off_part
 from robolab_ms.policies.oracle_chord import chord_grasp
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
@@ -973,6 +974,10 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
             if best_key is None or key < best_key:
                 best, best_key = (xy, z, direction), key
     xy, z, direction = best
+    if long and not tool and closing is None and heights is not None and not part_only:  # a handle off the pads'
+        seen = _footprint_points(env, name, points)  # middle (oracle_centred)
+        if off_part(seen, xy, direction):
+            xy, z, direction = centred_grasp(seen, directions, bottom, heights) or (xy, z, direction)
     # a wall grasp needs ray casts, which the oracle does only on the CPU simulator (where `heights` exist)
     wide = closing is None and heights is not None and _too_wide(points, direction, z)
     standing = closing is None and heights is not None and not tool and _standing_container(env, name)
