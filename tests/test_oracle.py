@@ -2,8 +2,9 @@
 and BananasOutOfBin, a mug held by its wall, a phone reached under an overhang, a measuring cup held by its handle,
 fixture scenes for stacking, standing a block up and standing a lying mug up, a lying jug stood up by its neck, a
 stack taken apart from the top, the shelf cover, a square box closed on across its faces, a job planned again
-after its object slipped out of the hand, a can as wide as the open fingers held off its middle, and all the
-fruits set onto a plate largest first."""
+after its object slipped out of the hand, a can as wide as the open fingers held off its middle, all the fruits
+set onto a plate largest first, a wooden spoon's handle centred between the pads, and a reach past a crate's wall
+that does not catch its rim."""
 
 import pytest
 from helpers import put
@@ -468,3 +469,13 @@ def test_a_wooden_spoon_beside_oranges_is_grasped_with_its_handle_between_the_pa
     results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("WoodSpatulaToBowl",), episodes=1, first_seed=2),
                              tmp_path, show_progress=False)  # fmt: skip
     assert results[0].error is None and results[0].success
+
+
+def test_oracle_reaches_past_a_crate_wall_without_catching_its_rim(tmp_path):
+    """After dropping the milk carton into the crate, the joint path to the lying juice carton sagged below the
+    straight line the oracle checked, an open finger caught the crate's rim and pulled the crate over onto the juice
+    carton (seed 4 failed so); the real path is checked, and the hand goes over high and comes straight down."""
+    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("RecycleCarton",), episodes=1, first_seed=4),
+                             tmp_path, show_progress=False)  # fmt: skip
+    assert results[0].error is None and results[0].success
+    assert not any(event["type"] == "object_tipped_over" for event in results[0].events)

@@ -36,6 +36,7 @@ from robolab_ms.policies.oracle_side import side_hold_job
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_pads import pads_snag
 from robolab_ms.policies.oracle_share import shared_spot
+from robolab_ms.policies.oracle_sag import sagging_reach_height
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
 from robolab_ms.policies.oracle_tools import draw_nearer, far_tool, higher_hold, reachable_above
 from robolab_ms.tasks.predicates import PREDICATES, per_object
@@ -497,7 +498,14 @@ class OraclePolicy(Policy):
         start = (sapien.Pose(p=flange[:3], q=flange[3:]) * self._tcp_in_flange).p
         height = _pass_height(self.env, np.asarray(start, dtype=np.float64), above_grasp[:3], name)
         if height is None:
-            return self._move(qpos, above_grasp, what, straight=False)
+            planned = len(self.actions)
+            end = self._move(qpos, above_grasp, what, straight=False)
+            height = sagging_reach_height(self, planned, name)  # the path itself dips onto a wall on the way
+            if height is None:
+                return end
+            while len(self.actions) > planned:
+                self.actions.pop()
+            height = max(height, float(above_grasp[2]))
         transit = above_grasp.copy()
         transit[2] = height
         qpos = self._move(qpos, transit, what, straight=False)
