@@ -12,7 +12,7 @@ import sapien
 
 from robolab_ms.envs import RoboLabEnv
 from robolab_ms.tasks.predicates import PREDICATES, per_object
-from robolab_ms.tasks.spec import Condition
+from robolab_ms.tasks.condition import Condition
 
 GRASP_LAB = Path(__file__).parent / "fixtures" / "GraspLab.yaml"
 LIFT = 0.10  # m

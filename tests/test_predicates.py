@@ -7,7 +7,7 @@ import torch
 from helpers import hold_arm_action, put
 
 from robolab_ms.tasks.predicates import PREDICATES, combine, per_object
-from robolab_ms.tasks.spec import Condition
+from robolab_ms.tasks.condition import Condition
 
 TESTED = set()
 

@@ -30,7 +30,8 @@ from robolab_ms.generation.llm import GenerationError, JsonModel
 from robolab_ms.generation.proposal import FRAME
 from robolab_ms.scene import SceneSpec
 from robolab_ms.tasks.predicates import PREDICATES
-from robolab_ms.tasks.spec import Condition, TaskSpec
+from robolab_ms.tasks.condition import Condition
+from robolab_ms.tasks.spec import TaskSpec
 
 ALIGNED, MISALIGNED, UNSURE = "aligned", "misaligned", "unsure"
 ALLOWED = {  # the reading's relation -> predicates that express it

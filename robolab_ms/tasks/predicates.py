@@ -22,7 +22,7 @@ import torch
 
 if TYPE_CHECKING:
     from robolab_ms.tasks.context import EvalContext
-    from robolab_ms.tasks.spec import Condition
+    from robolab_ms.tasks.condition import Condition
 
 PredicateFn = Callable[..., torch.Tensor]
 CONTACT_FORCE_N = 0.1  # two bodies touch when the force between them exceeds this (RoboLab's threshold)

@@ -11,13 +11,14 @@ from __future__ import annotations
 import math
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from robolab_ms.content import Fields, check_name, content_files, load_yaml
 from robolab_ms.errors import RoboLabError, UnknownNameError, did_you_mean
 from robolab_ms.scene import SceneSpec, load_scene, read_scene, scene_names
+from robolab_ms.tasks.condition import Condition
 from robolab_ms.tasks.events import EVENT_THRESHOLDS
 from robolab_ms.tasks.predicates import FLAGS, PREDICATES, STACK_ORDERS, TABLE
 from robolab_ms.tasks.progress import Group, Stage
@@ -35,21 +36,6 @@ SKILL_WEIGHT = {
     "counting": 2, "sorting": 2, "stacking": 2, "affordance": 2, "reorientation": 3,
 }  # fmt: skip
 LOGICALS = ("all", "any", "choose")
-
-
-@dataclass(frozen=True, eq=False)
-class Condition:
-    """One predicate applied to objects, with its reference objects, multi-object logic, flags and parameters."""
-
-    predicate: str
-    objects: tuple[str, ...]
-    references: dict[str, str]
-    logical: str = "all"
-    k: int = 1
-    require_contact_with: bool = False
-    require_gripper_detached: bool = False
-    params: dict[str, Any] = field(default_factory=dict)
-    require_picked_up: bool = False  # the object was picked up at some step (latched): not knocked into place
 
 
 @dataclass(frozen=True)
