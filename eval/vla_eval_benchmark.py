@@ -115,6 +115,8 @@ class RoboLabBenchmark(StepBenchmark):
                                f"one of {', '.join(INSTRUCTION_VARIANTS)}")  # fmt: skip
         if not isinstance(images, bool):
             raise RoboLabError(f"vla-eval params.images: expected true or false, got {images!r}")
+        if suite is not None and not isinstance(suite, str):
+            raise RoboLabError(f"vla-eval params.suite: expected NAME or NAME:COND/COND, got {suite!r}")
         self.seed = _whole_number(seed, "seed")
         self.max_steps = None if max_steps is None else _whole_number(max_steps, "max_steps", least=1)
         self.instruction, self.images = instruction, images
@@ -125,8 +127,12 @@ class RoboLabBenchmark(StepBenchmark):
         vary_text = Variations.create(",".join(vary_names)).text if vary_names else ""
         conditions = suite_conditions(suite)[1] if suite else {"": ""}
         self._tasks: list[Task] = []
+        seen: set[str] = set()
         for name in names:
             spec = load_task(name)
+            if spec.name in seen:
+                raise RoboLabError(f"vla-eval params.tasks: the task {spec.name} is given twice; give it once")
+            seen.add(spec.name)
             if is_task_file(name):
                 robolab_ms.envs.register_task_file(spec.file, replace=True)
             length = min(spec.max_episode_steps, self.max_steps or spec.max_episode_steps)

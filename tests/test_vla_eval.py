@@ -144,10 +144,12 @@ def test_tasks_conditions_and_bad_params():
     longest = max(spec.max_episode_steps for spec in specs[:2])
     assert RoboLabBenchmark(tasks=[TASK, "PickDrill"]).get_metadata()["max_steps"] == longest
     assert RoboLabBenchmark(tasks=[TASK, "PickDrill"], max_steps=40).get_metadata()["max_steps"] == 40
-    for params, field in (({"instruction": "odd"}, "params.instruction"), ({"seed": "1"}, "params.seed"),
-                          ({"max_steps": 0}, "params.max_steps"), ({"tag": [""]}, "params.tag")):  # fmt: skip
+    bad = (({"instruction": "odd"}, "params.instruction"), ({"seed": "1"}, "params.seed"),
+           ({"max_steps": 0}, "params.max_steps"), ({"tag": [""]}, "params.tag"),
+           ({"suite": ["lighting"]}, "params.suite"), ({"tasks": [TASK, TASK]}, "given twice"))  # fmt: skip
+    for params, field in bad:
         with pytest.raises(RoboLabError, match=field):
-            RoboLabBenchmark(tasks=TASK, **params)
+            RoboLabBenchmark(**{"tasks": TASK, **params})
     with pytest.raises(UnknownNameError, match=TASK):
         RoboLabBenchmark(tasks="BananaInBowls")
 
