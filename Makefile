@@ -21,6 +21,7 @@ test: setup
 
 setup: $(PKG_STAMP) render-check assets
 
+# requirements.lock pins the dependencies and the extras' packages (ray, vla-eval): setup installs them all.
 $(DEPS_STAMP): requirements.lock
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade "pip>=24"

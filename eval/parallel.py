@@ -108,7 +108,7 @@ class EpisodeWorker:
             _reconnect(self.policy, self.config.reconnect_seconds, self.out_dir)
         if self.env_task != spec.name:
             self._close_env()
-            self.env = gym.make(spec.env_id, **env_kwargs(self.policy, self.config))
+            self.env = gym.make(spec.env_id, **env_kwargs(self.policy.needs_images, self.config))
             self.env_task = spec.name
             self.recorder = EpisodeRecorder(self.env, self.out_dir, self.config.record, self.policy.name)
         return _run_episode(self.env, self.policy, spec, self.config, job.seed, self.bar, self.recorder, self.out_dir)

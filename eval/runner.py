@@ -51,9 +51,10 @@ class EvalConfig:
         return self.episodes_adaptive or self.episodes
 
 
-def env_kwargs(policy: Policy, config: EvalConfig) -> dict[str, Any]:
-    """The keyword arguments of `gym.make` for every task of this evaluation."""
-    kwargs = {"obs_mode": "rgb" if policy.needs_images else "state_dict", "instruction": config.instruction,
+def env_kwargs(needs_images: bool, config: EvalConfig) -> dict[str, Any]:
+    """The keyword arguments of `gym.make` for every task of this evaluation, for a policy that reads camera
+    images (`needs_images`) or not."""
+    kwargs = {"obs_mode": "rgb" if needs_images else "state_dict", "instruction": config.instruction,
               "robot_uids": config.robot, "render_backend": "cpu"}  # fmt: skip
     if config.variations:
         kwargs["variations"] = config.variations
@@ -123,7 +124,7 @@ def _run_all(policy: Policy, config: EvalConfig, out_dir: Path, show_progress: b
                         if env is not None:
                             env.close()
                         bar.set_postfix_str(f"loading {spec.name}")
-                        env = gym.make(spec.env_id, **env_kwargs(policy, config))
+                        env = gym.make(spec.env_id, **env_kwargs(policy.needs_images, config))
                         env_task = spec.name
                         recorder = EpisodeRecorder(env, out_dir, config.record, policy.name)
                     result = _run_episode(env, policy, spec, config, seed, bar, recorder, out_dir)
@@ -154,6 +155,17 @@ def _droid_view(env: Any) -> Any:
     return DroidObservation(env)
 
 
+def checked_action(action: np.ndarray, space: Any, source: str) -> tuple[np.ndarray, bool]:
+    """An action as the environment executes it: `space`'s shape and finite (else PolicyReplyError naming
+    `source`), clipped to its bounds; and whether an arm joint target was clipped (the gripper's range is clipped
+    without counting)."""
+    if action.shape != space.shape or not np.isfinite(action).all():
+        raise PolicyReplyError(f"{source} returned the action {action.tolist()}; expected {space.shape[0]} finite "
+                               "numbers")  # fmt: skip
+    clipped = np.clip(action, space.low, space.high)
+    return clipped, bool(np.any(np.abs(clipped[:-1] - action[:-1]) > 1e-6))
+
+
 class _PolicyStats:
     """Per episode: the policy's queries and their times, env step times, clipped steps, executed actions."""
 
@@ -170,12 +182,8 @@ class _PolicyStats:
         elapsed = (time.perf_counter() - start) * 1000.0
         queries = policy.pop_query_times()
         self.query_ms.extend([elapsed] if queries is None else queries)
-        if action.shape != space.shape or not np.isfinite(action).all():
-            raise PolicyReplyError(f"policy '{policy.name}' returned the action {action.tolist()}; expected "
-                                   f"{space.shape[0]} finite numbers")  # fmt: skip
-        clipped = np.clip(action, space.low, space.high)
-        if np.any(np.abs(clipped[:-1] - action[:-1]) > 1e-6):  # the gripper's range is clipped without counting
-            self.clipped_steps += 1
+        clipped, arm_clipped = checked_action(action, space, f"policy '{policy.name}'")
+        self.clipped_steps += int(arm_clipped)
         self.actions.append(clipped)
         return clipped
 
@@ -306,7 +314,7 @@ def _write_manifest(out_dir: Path, policy: Policy, config: EvalConfig) -> None:
         "config": asdict(config),
         "command": ["robolab", *sys.argv[1:]] if Path(sys.argv[0]).name == "robolab" else list(sys.argv),
         "rerun": rerun_command(policy, config, out_dir),
-        "env_kwargs": env_kwargs(policy, config),
+        "env_kwargs": env_kwargs(policy.needs_images, config),
         **_variation_manifest(config),
         "versions": {pkg: version(pkg) for pkg in ("robolab-ms", "mani-skill", "sapien", "torch", "gymnasium")},
         "python": platform.python_version(),

@@ -65,20 +65,9 @@ def _add_task_filters(parser: argparse.ArgumentParser) -> None:
 
 def _select_tasks(args: argparse.Namespace) -> None:
     """Expand `--task all` and apply --tag / --difficulty / --scene: `args.task` becomes the chosen tasks."""
-    from robolab_ms.tasks.selection import ALL_TASKS, describe_filters, filter_tasks, require_some
-    from robolab_ms.tasks.spec import load_task, task_names
+    from robolab_ms.tasks.selection import select_tasks
 
-    filters = {"tags": args.tag, "difficulties": args.difficulty, "scenes": args.scene}
-    given = list(getattr(args, "task", None) or [])
-    if not any(filters.values()) and ALL_TASKS not in given:
-        return
-    names = [task for task in given if task != ALL_TASKS]
-    if not given or ALL_TASKS in given:
-        names = task_names() + [task for task in names if task not in task_names()]
-    specs = {task: load_task(task) for task in names}  # unknown names and bad files fail here, with suggestions
-    chosen = {id(spec) for spec in filter_tasks(list(specs.values()), **filters)}
-    args.task = [task for task, spec in specs.items() if id(spec) in chosen]
-    require_some(args.task, describe_filters(**filters))
+    args.task = select_tasks(getattr(args, "task", None), args.tag, args.difficulty, args.scene)
 
 
 def _cmd_list(args: argparse.Namespace) -> int:

@@ -37,5 +37,8 @@ def test_needs_images_and_the_wrist_camera():
     try:
         with pytest.raises(RoboLabError, match="obs_mode='rgb'"):
             DroidObservation(env)
+        obs, _ = DroidObservation(env, images=False).reset(seed=0)  # the robot's state only: nothing rendered
+        assert set(obs) == {"joint_position", "gripper_position", "eef_pose", "prompt"}
+        assert obs["joint_position"].shape == (1, 7) and obs["gripper_position"][0, 0] < 0.05
     finally:
         env.close()

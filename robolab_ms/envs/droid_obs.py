@@ -6,7 +6,8 @@
     obs["prompt"]                 # the task instruction, one string
 
 Every array keeps ManiSkill's leading num_envs dimension, also for num_envs = 1 (nothing is squeezed), and is a
-NumPy array on the CPU.
+NumPy array on the CPU. With `images=False` the two image keys are left out and the environment may be made with
+state observations (nothing is rendered), for policies that read only the robot's state.
 """
 
 from __future__ import annotations
@@ -31,31 +32,34 @@ class DroidObservation(gym.ObservationWrapper):
     and quaternion (w, x, y, z) in the robot base frame; `prompt` str, the instruction.
 
     Args:
-        env: a RoboLab environment made with obs_mode "rgb" (or another mode with rgb images).
+        env: a RoboLab environment made with obs_mode "rgb" (or another mode with rgb images); any mode when
+            `images` is False.
         exterior_camera: which external camera feeds `exterior_image_1_left` (external_left by default).
+        images: whether to include the two images (False: the robot's state and the prompt only).
     """
 
-    def __init__(self, env: gym.Env, exterior_camera: str = "external_left") -> None:
+    def __init__(self, env: gym.Env, exterior_camera: str = "external_left", images: bool = True) -> None:
         super().__init__(env)
         base = env.unwrapped
-        cameras = getattr(base, "camera_names", ())
-        for needed in (exterior_camera, "wrist"):
-            if needed not in cameras:
-                raise RoboLabError(
-                    f"DroidObservation needs the '{needed}' camera; make the environment with "
-                    f"cameras=({exterior_camera!r}, 'wrist') (it has {list(cameras)})"
-                )
-        if "rgb" not in getattr(base, "obs_mode", ""):
-            raise RoboLabError(f"DroidObservation needs images: make the environment with obs_mode='rgb' "
-                               f"(it has '{base.obs_mode}')")  # fmt: skip
-        self.exterior_camera = exterior_camera
-        count, height, width = base.num_envs, base.camera_height, base.camera_width
-        arm = len(base.robot.arm_joints)
-        image = spaces.Box(0, 255, (count, height, width, 3), np.uint8)
+        self.exterior_camera, self.images = exterior_camera, images
+        count, arm = base.num_envs, len(base.robot.arm_joints)
+        keys: dict[str, spaces.Space] = {}
+        if images:
+            cameras = getattr(base, "camera_names", ())
+            for needed in (exterior_camera, "wrist"):
+                if needed not in cameras:
+                    raise RoboLabError(
+                        f"DroidObservation needs the '{needed}' camera; make the environment with "
+                        f"cameras=({exterior_camera!r}, 'wrist') (it has {list(cameras)})"
+                    )
+            if "rgb" not in getattr(base, "obs_mode", ""):
+                raise RoboLabError(f"DroidObservation needs images: make the environment with obs_mode='rgb' "
+                                   f"(it has '{base.obs_mode}'), or pass images=False")  # fmt: skip
+            image = spaces.Box(0, 255, (count, base.camera_height, base.camera_width, 3), np.uint8)
+            keys = {EXTERIOR_IMAGE: image, WRIST_IMAGE: image}
         self.observation_space = spaces.Dict(
             {
-                EXTERIOR_IMAGE: image,
-                WRIST_IMAGE: image,
+                **keys,
                 "joint_position": spaces.Box(-np.inf, np.inf, (count, arm), np.float32),
                 "gripper_position": spaces.Box(0.0, 1.0, (count, 1), np.float32),
                 "eef_pose": spaces.Box(-np.inf, np.inf, (count, 7), np.float32),
@@ -65,10 +69,13 @@ class DroidObservation(gym.ObservationWrapper):
 
     def observation(self, observation: dict[str, Any]) -> dict[str, Any]:
         base = self.env.unwrapped
-        sensors = observation["sensor_data"]
+        images = {}
+        if self.images:
+            sensors = observation["sensor_data"]
+            images = {EXTERIOR_IMAGE: _numpy(sensors[self.exterior_camera]["rgb"]),
+                      WRIST_IMAGE: _numpy(sensors["wrist"]["rgb"])}  # fmt: skip
         return {
-            EXTERIOR_IMAGE: _numpy(sensors[self.exterior_camera]["rgb"]),
-            WRIST_IMAGE: _numpy(sensors["wrist"]["rgb"]),
+            **images,
             "joint_position": _numpy(base.arm_qpos()).astype(np.float32),
             "gripper_position": _numpy(observation["extra"]["gripper_position"]).astype(np.float32),
             "eef_pose": _numpy(observation["extra"]["tcp_pose"]).astype(np.float32),

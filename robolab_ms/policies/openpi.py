@@ -22,7 +22,27 @@ from robolab_ms.policies import PolicyConnectionLost, PolicyReplyError, PolicyTi
 from robolab_ms.policies.remote import ChunkedPolicy, check_chunk, probe_server
 
 IMAGE_SIZE = 224
+OPENPI_KEY_PREFIX = "observation/"  # openpi's DROID keys: observation/<DROID key>
 ROBOLAB_KEY_PREFIX = "robolab/"
+
+
+def droid_request(observation: dict[str, Any]) -> dict[str, Any]:
+    """openpi's DROID request for one DROID observation of environment 0 (batched arrays from DroidObservation):
+    the images resized with padding to 224x224 uint8, joint and gripper positions, the prompt. An observation
+    made without images (DroidObservation(images=False)) gives a request without them."""
+    from openpi_client import image_tools
+
+    from robolab_ms.envs.droid_obs import EXTERIOR_IMAGE, WRIST_IMAGE
+
+    request: dict[str, Any] = {}
+    for key in (EXTERIOR_IMAGE, WRIST_IMAGE):
+        if key in observation:
+            resized = image_tools.resize_with_pad(np.asarray(observation[key])[0], IMAGE_SIZE, IMAGE_SIZE)
+            request[OPENPI_KEY_PREFIX + key] = image_tools.convert_to_uint8(resized)
+    request[OPENPI_KEY_PREFIX + "joint_position"] = np.asarray(observation["joint_position"], dtype=np.float32)[0]
+    request[OPENPI_KEY_PREFIX + "gripper_position"] = np.asarray(observation["gripper_position"], dtype=np.float32)[0]
+    request["prompt"] = str(observation["prompt"])
+    return request
 
 
 def _client_class() -> type:
@@ -102,19 +122,7 @@ class OpenPIPolicy(ChunkedPolicy):
 
     def observation_request(self, observation: dict[str, Any]) -> dict[str, Any]:
         """The openpi request for one DROID observation (batched arrays from DroidObservation)."""
-        from openpi_client import image_tools
-
-        def image(key: str) -> np.ndarray:
-            return image_tools.convert_to_uint8(image_tools.resize_with_pad(np.asarray(observation[key])[0],
-                                                                            IMAGE_SIZE, IMAGE_SIZE))  # fmt: skip
-
-        request: dict[str, Any] = {
-            "observation/exterior_image_1_left": image("exterior_image_1_left"),
-            "observation/wrist_image_left": image("wrist_image_left"),
-            "observation/joint_position": np.asarray(observation["joint_position"], dtype=np.float32)[0],
-            "observation/gripper_position": np.asarray(observation["gripper_position"], dtype=np.float32)[0],
-            "prompt": str(observation["prompt"]),
-        }
+        request = droid_request(observation)
         if self._metadata.get("server") == "robolab_ms":
             request.update({ROBOLAB_KEY_PREFIX + key: value for key, value in self.episode_fields().items()})
         return request

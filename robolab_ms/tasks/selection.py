@@ -72,3 +72,30 @@ def require_some(chosen: Sequence[TaskSpec], how: str) -> None:
     if not chosen:
         raise RoboLabError(f"no task matches {how}; see `robolab list` for every task's attributes, axes, difficulty "
                            "and scene")  # fmt: skip
+
+
+def select_tasks(
+    given: Sequence[str] | None,
+    tags: Sequence[str] | None = None,
+    difficulties: Sequence[str] | None = None,
+    scenes: Sequence[str] | None = None,
+) -> list[str]:
+    """The tasks to run, as `robolab eval` chooses them: `given` (names or task files; `all` = every known task,
+    as is an empty `given` when a filter is set) narrowed by the filters. With filters, unknown names and bad
+    files raise with suggestions (without, the caller loads the tasks), and an empty selection raises."""
+    from robolab_ms.tasks.spec import load_task, task_names
+
+    given = list(given or [])
+    filters = {"tags": tags, "difficulties": difficulties, "scenes": scenes}
+    if not any(filters.values()) and ALL_TASKS not in given:
+        return given
+    names = [task for task in given if task != ALL_TASKS]
+    if not given or ALL_TASKS in given:
+        names = task_names() + [task for task in names if task not in task_names()]
+    if not any(filters.values()):
+        return names
+    specs = {task: load_task(task) for task in names}  # unknown names and bad files fail here, with suggestions
+    chosen = {id(spec) for spec in filter_tasks(list(specs.values()), **filters)}
+    selected = [task for task, spec in specs.items() if id(spec) in chosen]
+    require_some(selected, describe_filters(**filters))
+    return selected
