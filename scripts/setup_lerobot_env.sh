@@ -60,7 +60,7 @@ else
     rm -f "$stamp"
     "$env_dir/bin/python" -m pip install --quiet --upgrade "pip>=24"
     "$env_dir/bin/python" -m pip install --quiet -r "$lock"
-    "$env_dir/bin/python" -m pip check
+    "$env_dir/bin/python" -m pip check >&2
     echo "$want" >"$stamp"
     echo "built in $(($(date +%s) - start)) s, $(du -sh "$env_dir" | cut -f1)" >&2
 fi

@@ -121,9 +121,8 @@ def _check_executed(tmp: Path, out: Path, results: list[dict], policy: str, chun
 ACT_CHECKPOINT = ["--policy-type", "act", "--image-size", "180,320", "--set", "pretrained_backbone_weights=null",
                   "--set", "chunk_size=20", "--set", "n_action_steps=20", "--set", "dim_model=128",
                   "--set", "dim_feedforward=512"]  # fmt: skip
-DIFFUSION = ["--policy-type", "diffusion", "--image-size", "96,96", "--set", "pretrained_backbone_weights=null",
-             "--set", "num_inference_steps=2", "--set", "down_dims=[64,128]", "--set", "horizon=16",
-             "--set", "n_action_steps=8"]  # fmt: skip
+DIFFUSION = ["--policy-type", "diffusion", "--image-size", "96,96", "--set", "num_inference_steps=2",
+             "--set", "down_dims=[64,128]", "--set", "horizon=16", "--set", "n_action_steps=8"]  # fmt: skip
 
 
 def _act_from_checkpoint(python: str, tmp: Path, stats: Path) -> list[dict]:
@@ -172,6 +171,38 @@ def test_diffusion_policy_type_served_and_evaluated(runs):
     _check_inputs(tmp, [3, 96, 96], results[0]["instruction"])
     _check_executed(tmp, tmp / "run", results, "lerobot-diffusion", chunk=8)
     assert results[0]["policy_metadata"]["policy_source"] == "random weights"
+
+
+RESIZE = """
+import sys
+import numpy as np
+from robolab_ms.policies.lerobot_server import image_to_feature
+
+content = np.zeros((126, 224, 3), np.uint8)  # a 16:9 picture: red left half, blue right half
+content[:, :112, 0] = 200
+content[:, 112:, 2] = 200
+padded = np.zeros((224, 224, 3), np.uint8)  # as openpi's clients send it: padded to a square
+padded[49:175] = content
+for shape in [(3, 180, 320), (3, 96, 96), (3, 224, 224)]:
+    np.save(f"{sys.argv[1]}/{shape[1]}x{shape[2]}.npy", image_to_feature(padded, shape).numpy())
+np.save(f"{sys.argv[1]}/padded.npy", padded)
+"""
+
+
+def test_padded_image_is_fitted_to_the_feature_keeping_its_aspect(lerobot_python, tmp_path):
+    run = subprocess.run([lerobot_python, "-c", RESIZE, str(tmp_path)], capture_output=True, text=True,
+                         timeout=300, env=WITH_CHECKOUT)  # fmt: skip
+    assert run.returncode == 0, run.stderr[-4000:]
+    wide = np.load(tmp_path / "180x320.npy")
+    assert wide.shape == (1, 3, 180, 320) and wide.dtype == np.float32
+    assert np.all(wide[0].max(axis=(0, 2)) > 0.7)  # the black border is gone: every row is picture
+    np.testing.assert_allclose(wide[0, :, :, :150].mean(axis=(1, 2)), [200 / 255, 0, 0], atol=0.01)
+    np.testing.assert_allclose(wide[0, :, :, 170:].mean(axis=(1, 2)), [0, 0, 200 / 255], atol=0.01)
+    square = np.load(tmp_path / "96x96.npy")[0]  # 16:9 into a square: 54 rows of picture, padded above and below
+    assert square.shape == (3, 96, 96)
+    assert square[:, :21].max() == 0 and square[:, 75:].max() == 0 and np.all(square[:, 21:75].max(axis=(0, 2)) > 0.7)
+    same = np.load(tmp_path / "224x224.npy")[0]  # the feature's own size: passed as it is
+    np.testing.assert_array_equal(same, np.load(tmp_path / "padded.npy").transpose(2, 0, 1) / np.float32(255))
 
 
 def test_bad_option_is_one_line_and_exit_2(lerobot_python, tmp_path):

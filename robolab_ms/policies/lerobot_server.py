@@ -2,11 +2,11 @@
 
 LeRobot 0.5 and later need Python 3.12 and numpy 2, so LeRobot policies run in their own environment
 (`make lerobot-env`, see docs/policies.md) and reach the benchmark through this server. It imports numpy, torch,
-lerobot, websockets and msgpack, and from robolab_ms only modules that need nothing more:
+lerobot, websockets and msgpack, and from robolab_ms only light modules (errors, the LeRobot key names; their
+gymnasium is a LeRobot dependency too), never the simulator:
 
     PYTHONPATH=. .venv-lerobot/bin/python -m robolab_ms.policies.lerobot_server --checkpoint DIR --port 8000
-    PYTHONPATH=. .venv-lerobot/bin/python -m robolab_ms.policies.lerobot_server --policy-type act \\
-        --set pretrained_backbone_weights=null --port 8000
+    PYTHONPATH=. .venv-lerobot/bin/python -m robolab_ms.policies.lerobot_server --policy-type act --port 8000
 
 The policy is any LeRobot `PreTrainedPolicy`: a checkpoint folder on this machine (`from_pretrained`, with the
 pre- and post-processors saved beside it; nothing is fetched from a hub), or a policy type built from its config
@@ -285,7 +285,7 @@ def parse_settings(items: list[str]) -> dict[str, Any]:
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key:
-            raise RoboLabError(f"--set {item!r}: write KEY=VALUE, e.g. pretrained_backbone_weights=null")
+            raise RoboLabError(f"--set {item!r}: write KEY=VALUE, e.g. n_action_steps=16")
         try:
             settings[key.strip()] = json.loads(value)
         except json.JSONDecodeError:
@@ -337,51 +337,76 @@ def load_policy(args: argparse.Namespace) -> ServedPolicy:
                                "the policy in (e.g. outputs/train/.../checkpoints/last/pretrained_model)")  # fmt: skip
         if args.stats:
             raise RoboLabError("--stats is for --policy-type; a checkpoint keeps its statistics in its processors")
+    device = _device(args.device)
+    what = f"--checkpoint {args.checkpoint}" if args.checkpoint else f"--policy-type {args.policy_type}"
+    try:
+        if args.checkpoint:
+            policy, preprocessor, postprocessor = _from_checkpoint(Path(args.checkpoint), settings, device)
+        else:
+            policy, preprocessor, postprocessor = _from_config(args, settings, device)
+    except RoboLabError:
+        raise
+    except Exception as exc:  # LeRobot's own errors: a version mismatch, a missing extra, a tokenizer not cached
+        message = " ".join(str(exc).split())[:1500]
+        raise RoboLabError(f"{what}: LeRobot could not build the policy: {type(exc).__name__}: {message}") from None
+    policy.to(device)
+    policy.eval()
+    config = policy.config
+    sources = default_sources(dict(config.input_features), mapping)
+    indices = _action_indices(args.action_indices, int(config.output_features["action"].shape[0]))
+    source = str(args.checkpoint) if args.checkpoint else "random weights"
+    return ServedPolicy(policy, preprocessor, postprocessor, source, device, sources, indices)
+
+
+def _from_checkpoint(folder: Path, settings: dict[str, Any], device: str) -> tuple[Any, Any, Any]:
+    """The policy and its saved processors, as LeRobot's evaluation loads them."""
+    from lerobot.configs.policies import PreTrainedConfig
+    from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+
+    config = PreTrainedConfig.from_pretrained(folder)
+    _apply_settings(config, settings)
+    config.device = device
+    policy = get_policy_class(config.type).from_pretrained(folder, config=config)
+    overrides = {"device_processor": {"device": device}}
+    try:
+        preprocessor, postprocessor = make_pre_post_processors(
+            config, pretrained_path=str(folder), preprocessor_overrides=overrides,
+            postprocessor_overrides=overrides)  # fmt: skip
+    except FileNotFoundError as exc:
+        raise RoboLabError(f"--checkpoint {folder}: no saved pre-/post-processor ({exc}); a checkpoint of an older "
+                           "LeRobot needs converting with lerobot's processor/migrate_policy_normalization.py") from None  # fmt: skip
+    return policy, preprocessor, postprocessor
+
+
+def _from_config(args: argparse.Namespace, settings: dict[str, Any], device: str) -> tuple[Any, Any, Any]:
+    """A policy type built from its config class with DROID's features and random weights, and fresh processors.
+    A pretrained vision backbone (a download) is off unless --set asks for one."""
+    import dataclasses
 
     from lerobot.configs.policies import PreTrainedConfig
     from lerobot.configs.types import FeatureType, PolicyFeature
     from lerobot.policies.factory import get_policy_class, make_policy_config, make_pre_post_processors
 
-    device = _device(args.device)
+    try:
+        config = make_policy_config(args.policy_type, device=device)
+    except ValueError:
+        known = ", ".join(sorted(PreTrainedConfig.get_known_choices()))
+        raise RoboLabError(f"--policy-type {args.policy_type}: not a LeRobot policy type; known: {known}") from None
+    if "pretrained_backbone_weights" in {item.name for item in dataclasses.fields(config)}:
+        settings = {"pretrained_backbone_weights": None, **settings}
+    _apply_settings(config, settings)
+    height, width = args.image_size
+    image = PolicyFeature(type=FeatureType.VISUAL, shape=(3, height, width))
+    config.input_features = {CAMERA_KEYS[key]: image for key in IMAGE_SOURCES}
+    config.input_features["observation.state"] = PolicyFeature(type=FeatureType.STATE, shape=(DROID_ACTION_DIM,))
+    config.output_features = {"action": PolicyFeature(type=FeatureType.ACTION, shape=(DROID_ACTION_DIM,))}
+    config.validate_features()
+    policy = get_policy_class(config.type)(config=config)
     overrides = {"device_processor": {"device": device}}
-    if args.checkpoint:
-        folder = Path(args.checkpoint)
-        config = PreTrainedConfig.from_pretrained(folder)
-        _apply_settings(config, settings)
-        config.device = device
-        policy = get_policy_class(config.type).from_pretrained(folder, config=config)
-        try:
-            preprocessor, postprocessor = make_pre_post_processors(
-                config, pretrained_path=str(folder), preprocessor_overrides=overrides,
-                postprocessor_overrides=overrides)  # fmt: skip
-        except FileNotFoundError as exc:
-            raise RoboLabError(f"--checkpoint {folder}: no saved pre-/post-processor ({exc}); a checkpoint of an "
-                               "older LeRobot needs converting with lerobot's "
-                               "processor/migrate_policy_normalization.py") from None  # fmt: skip
-        source = str(folder)
-    else:
-        height, width = args.image_size
-        image = PolicyFeature(type=FeatureType.VISUAL, shape=(3, height, width))
-        features = {CAMERA_KEYS[key]: image for key in IMAGE_SOURCES}
-        features["observation.state"] = PolicyFeature(type=FeatureType.STATE, shape=(DROID_ACTION_DIM,))
-        try:
-            config = make_policy_config(args.policy_type, device=device)
-        except ValueError as exc:
-            raise RoboLabError(f"--policy-type {args.policy_type}: {exc}") from None
-        _apply_settings(config, settings)
-        config.input_features = features
-        config.output_features = {"action": PolicyFeature(type=FeatureType.ACTION, shape=(DROID_ACTION_DIM,))}
-        config.validate_features()
-        policy = get_policy_class(config.type)(config=config)
-        preprocessor, postprocessor = make_pre_post_processors(
-            config, dataset_stats=_stats(args.stats), preprocessor_overrides=overrides,
-            postprocessor_overrides=overrides)  # fmt: skip
-        source = "random weights"
-    policy.to(device)
-    policy.eval()
-    sources = default_sources(dict(config.input_features), mapping)
-    indices = _action_indices(args.action_indices, int(config.output_features["action"].shape[0]))
-    return ServedPolicy(policy, preprocessor, postprocessor, source, device, sources, indices)
+    preprocessor, postprocessor = make_pre_post_processors(
+        config, dataset_stats=_stats(args.stats), preprocessor_overrides=overrides,
+        postprocessor_overrides=overrides)  # fmt: skip
+    return policy, preprocessor, postprocessor
 
 
 def _action_indices(text: str | None, action_dim: int) -> list[int] | None:
@@ -514,10 +539,11 @@ def parser() -> argparse.ArgumentParser:
     which.add_argument("--checkpoint", metavar="DIR", help="a LeRobot checkpoint folder on this machine (config.json, "
                        "model.safetensors, policy_preprocessor.json ...)")  # fmt: skip
     which.add_argument("--policy-type", metavar="TYPE", help="build this policy type (act, diffusion, ...) from its "
-                       "config class with random weights and DROID's features")  # fmt: skip
+                       "config class with random weights and DROID's features (no pretrained vision backbone "
+                       "unless --set pretrained_backbone_weights=... asks for one)")  # fmt: skip
     parse.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                        help="set a field of the policy's config (VALUE as JSON where it parses), e.g. "
-                       "pretrained_backbone_weights=null or n_action_steps=16; repeatable")  # fmt: skip
+                       "n_action_steps=16 or num_inference_steps=10; repeatable")  # fmt: skip
     parse.add_argument("--image-size", type=_image_size, default=DEFAULT_IMAGE_SIZE, metavar="H,W",
                        help="--policy-type: the size of its image features (default: 224,224)")  # fmt: skip
     parse.add_argument("--stats", metavar="FILE", help="--policy-type: normalization statistics, JSON "
