@@ -51,3 +51,4 @@ lerobot-env:
 
 clean:
 	rm -rf $(VENV) build *.egg-info results
+	rm -f .venv-lerobot  # the link only: the environment itself is shared (see lerobot-env)

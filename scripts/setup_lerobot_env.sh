@@ -54,7 +54,11 @@ else
     echo "building the LeRobot environment in $env_dir with $python (the first build downloads about 3 GB)" >&2
     start=$(date +%s)
     if ! is_python312 "$env_dir/bin/python"; then
-        rm -rf "$env_dir"
+        if [ -e "$env_dir" ] && [ ! -f "$env_dir/pyvenv.cfg" ] && [ -n "$(ls -A "$env_dir")" ]; then
+            echo "$env_dir exists and is not a Python environment: move it away or set ROBOLAB_LEROBOT_ENV" >&2
+            exit 2
+        fi
+        rm -rf "$env_dir"  # empty, or an environment of another Python
         "$python" -m venv "$env_dir"
     fi
     rm -f "$stamp"

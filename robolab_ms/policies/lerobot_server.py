@@ -187,10 +187,21 @@ class ServedPolicy:
             actions = np.pad(actions, ((0, 0), (0, max(0, DROID_ACTION_DIM - actions.shape[1]))))
         return np.ascontiguousarray(actions[:, :DROID_ACTION_DIM], dtype=np.float32)
 
+    def check_sizes(self) -> None:
+        """Warn, before serving, about a state or an action whose length differs from what DROID has."""
+        for name, keys in self.sources.items():
+            if keys[0] not in IMAGE_SOURCES:
+                size, given = int(np.prod(self.config.input_features[name].shape)), sum(VECTOR_SOURCES[k] for k in keys)
+                if size != given:
+                    self._warn_once(name, f"'{name}' takes {size} values and {'+'.join(keys)} has {given}: "
+                                          f"{'padded with zeros' if given < size else 'cut'} to fit (map it with "
+                                          "--map)")  # fmt: skip
+        if self.action_indices is None and self.action_dim != DROID_ACTION_DIM:
+            self.to_droid(np.zeros((1, self.action_dim), np.float32))
+
     def _warn_once(self, key: str, message: str) -> None:
         if key not in self.warned:
             self.warned.add(key)
-            log.warning("%s", message)
             print(f"lerobot_server: warning: {message}", flush=True)
 
 
@@ -209,7 +220,7 @@ def image_to_feature(image: np.ndarray, shape: tuple[int, ...]) -> Any:
     scaled to fit (h, w) and padded with black, so that it keeps its aspect ratio. An image that already has the
     feature's size is passed as it is."""
     import torch
-    import torch.nn.functional as functional
+    from torch.nn import functional
 
     channels, height, width = shape
     if channels != 3:
@@ -244,8 +255,9 @@ def default_sources(input_features: dict[str, Any], mapping: dict[str, list[str]
     wrist = [name for name in unmapped_cameras if "wrist" in name]
     exterior = [name for name in unmapped_cameras if "wrist" not in name]
     if len(wrist) > 1 or len(exterior) > 1:
-        raise RoboLabError(f"the policy takes cameras {cameras}, and an openpi DROID request carries two images "
-                           f"({', '.join(IMAGE_SOURCES)}): say which feeds which with --map FEATURE=SOURCE")  # fmt: skip
+        raise RoboLabError(f"the policy takes cameras {cameras}, and an openpi DROID request carries two "
+                           f"images ({', '.join(IMAGE_SOURCES)}): say which feeds which with --map "
+                           "FEATURE=SOURCE")  # fmt: skip
     for name, feature in input_features.items():
         if name in mapping:
             keys = mapping[name]
@@ -253,9 +265,9 @@ def default_sources(input_features: dict[str, Any], mapping: dict[str, list[str]
             allowed = IMAGE_SOURCES if is_image else tuple(VECTOR_SOURCES)
             bad = [key for key in keys if key not in allowed]
             if bad or (is_image and len(keys) != 1):
-                raise RoboLabError(f"--map {name}={'+'.join(keys)}: "
-                                   f"{'an image feature takes one of' if is_image else 'a vector feature takes'} "
-                                   f"{' or '.join(allowed) if is_image else ' + '.join(allowed) + ' (any of them)'}")  # fmt: skip
+                takes = (f"an image feature takes one of {' or '.join(allowed)}" if is_image
+                         else f"a vector feature takes {' + '.join(allowed)} (any of them)")  # fmt: skip
+                raise RoboLabError(f"--map {name}={'+'.join(keys)}: {takes}")
             sources[name] = keys
         elif feature.type is FeatureType.VISUAL:
             sources[name] = [IMAGE_SOURCES[1] if "wrist" in name else IMAGE_SOURCES[0]]
@@ -355,7 +367,9 @@ def load_policy(args: argparse.Namespace) -> ServedPolicy:
     sources = default_sources(dict(config.input_features), mapping)
     indices = _action_indices(args.action_indices, int(config.output_features["action"].shape[0]))
     source = str(args.checkpoint) if args.checkpoint else "random weights"
-    return ServedPolicy(policy, preprocessor, postprocessor, source, device, sources, indices)
+    served = ServedPolicy(policy, preprocessor, postprocessor, source, device, sources, indices)
+    served.check_sizes()
+    return served
 
 
 def _from_checkpoint(folder: Path, settings: dict[str, Any], device: str) -> tuple[Any, Any, Any]:
@@ -373,8 +387,9 @@ def _from_checkpoint(folder: Path, settings: dict[str, Any], device: str) -> tup
             config, pretrained_path=str(folder), preprocessor_overrides=overrides,
             postprocessor_overrides=overrides)  # fmt: skip
     except FileNotFoundError as exc:
-        raise RoboLabError(f"--checkpoint {folder}: no saved pre-/post-processor ({exc}); a checkpoint of an older "
-                           "LeRobot needs converting with lerobot's processor/migrate_policy_normalization.py") from None  # fmt: skip
+        raise RoboLabError(f"--checkpoint {folder}: no saved pre-/post-processor ({exc}); a checkpoint of an "
+                           "older LeRobot needs converting with lerobot's "
+                           "processor/migrate_policy_normalization.py") from None  # fmt: skip
     return policy, preprocessor, postprocessor
 
 
@@ -430,7 +445,8 @@ def _summary(batch: dict[str, Any]) -> dict[str, Any]:
         if hasattr(value, "detach"):
             array = value.detach().to("cpu").float().numpy()
             summary[key] = {"shape": list(value.shape), "dtype": str(value.dtype).removeprefix("torch."),
-                            "min": float(array.min()), "max": float(array.max()), "mean": float(array.mean())}  # fmt: skip
+                            "min": float(array.min()), "max": float(array.max()),
+                            "mean": float(array.mean())}  # fmt: skip
         else:
             summary[key] = value
     return summary
@@ -459,14 +475,15 @@ class Server:
                 self.episode = key
             batch = self.served.batch(request)
             if self.log_inputs:
-                Path(self.log_inputs).write_text(json.dumps({"batch": _summary(batch),
-                                                             "inputs": self.served.metadata()["inputs"]}, indent=1))  # fmt: skip
+                logged = {"batch": _summary(batch), "inputs": self.served.metadata()["inputs"]}
+                Path(self.log_inputs).write_text(json.dumps(logged, indent=1))
                 self.log_inputs = None  # the first batch only
             raw, actions = self.served.chunk(batch)
             if self.log_actions:
+                line = {**{name: _plain(robolab.get(name)) for name in ("task", "seed", "step")},
+                        "policy_actions": raw.tolist(), "actions": actions.tolist()}
                 with open(self.log_actions, "a") as handle:
-                    handle.write(json.dumps({**{name: _plain(robolab.get(name)) for name in ("task", "seed", "step")},
-                                             "policy_actions": raw.tolist(), "actions": actions.tolist()}) + "\n")  # fmt: skip
+                    handle.write(json.dumps(line) + "\n")
         return actions
 
     async def handle(self, connection: Any) -> None:
