@@ -1,6 +1,7 @@
 # robolab_ms: two commands for a new machine.
 #   make demo   set up (.venv, dependencies, rendering) and run a small evaluation
 #   make test   set up and run the test suite
+#   make lerobot-env   the separate Python 3.12 environment for LeRobot policy servers (docs/policies.md)
 # Both are idempotent: a second run only re-installs robolab_ms when its sources changed.
 
 PYTHON ?= python3
@@ -11,7 +12,7 @@ PKG_STAMP := $(VENV)/.robolab-installed
 SOURCES := $(shell find robolab_ms eval analysis assets scene_builders task_specs -type f \
              -not -path '*/__pycache__/*' 2>/dev/null) pyproject.toml setup.py
 
-.PHONY: demo test setup render-check assets clean
+.PHONY: demo test setup render-check assets lerobot-env clean
 
 demo: setup
 	$(BIN)/robolab eval --policy random --task BananaInBowl --episodes 2 --out results/demo
@@ -44,5 +45,11 @@ render-check: $(PKG_STAMP)
 assets: $(PKG_STAMP)
 	@scripts/setup_assets.sh $(BIN)/python
 
+# LeRobot 0.5+ needs Python 3.12 and numpy 2: its own environment, pinned in requirements-lerobot.lock, kept in
+# robolab_ms's cache folder (shared by every checkout on the machine) and linked here as .venv-lerobot.
+lerobot-env:
+	@scripts/setup_lerobot_env.sh
+
 clean:
 	rm -rf $(VENV) build *.egg-info results
+	rm -f .venv-lerobot  # the link only: the environment itself is shared (see lerobot-env)

@@ -23,10 +23,10 @@ def free_port() -> int:
 class ServerProcess:
     """A server subprocess whose stdout is collected line by line; `ready` is the text it prints when listening."""
 
-    def __init__(self, args: list[str], ready: str, timeout: float = 120.0) -> None:
+    def __init__(self, args: list[str], ready: str, timeout: float = 120.0, env: dict[str, str] | None = None) -> None:
         self.args, self.lines = args, []
         self.process = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                        start_new_session=True)  # fmt: skip
+                                        start_new_session=True, env=env)  # fmt: skip
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             line = self.process.stdout.readline()
