@@ -90,7 +90,7 @@ def test_metrics_of_a_line_follow_the_gripper_base_link_of_its_recording(recorde
         joints, velocity = traj["robolab/joint_position"][()], traj["robolab/joint_velocity"][()]
         targets = traj["actions"][()][:, :7]
     assert base.shape == (STEPS + 1, 3) and velocity.shape == (STEPS + 1, 7)
-    # the base link sits TCP_DEPTH above the point between the pads, wherever the gripper goes
+    # the base link stays TCP_DEPTH from the point between the pads, wherever the gripper goes
     assert np.allclose(np.linalg.norm(tcp - base, axis=1), TCP_DEPTH, atol=1e-4)
     assert np.linalg.norm(base[-1] - base[0]) > 0.01  # and it moved
     expected = trajectory_metrics(base, joints, targets, 1 / 15, joint_velocities=velocity)
