@@ -13,7 +13,7 @@ from robolab_ms.errors import RoboLabError
 DEFAULT_BINS = 5
 TERMINAL_VIEWS = ("axis", "difficulty")
 GROUPING_NAMES = ("task", "axis", "attribute", "difficulty", "scene", "variant", "num_objects", "episode_length",
-                  "wrong_objects", "robot", "run", "condition")  # fmt: skip
+                  "wrong_objects", "robot", "run", "condition", "simulator")  # fmt: skip
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -69,6 +69,13 @@ def pair_outcomes(episodes: pd.DataFrame, a: str, b: str) -> tuple[pd.DataFrame,
     if a == b:
         raise RoboLabError(f"--compare {a} {b}: name two different policies")
     first, second = side_episodes(episodes, a), side_episodes(episodes, b)
+    if "simulator" in episodes:
+        simulators = {name: sorted(set(side["simulator"])) for name, side in ((a, first), (b, second))}
+        if simulators[a] != simulators[b]:
+            raise RoboLabError(
+                f"--compare {a} {b}: {a} ran in {', '.join(simulators[a])} and {b} in {', '.join(simulators[b])}; "
+                "the same seed does not start the same scene in two simulators, so their episodes do not pair. "
+                "Compare them side by side instead: robolab analyze ... --by task,simulator")  # fmt: skip
     pairs = first[MATCH_KEYS + ["success"]].merge(second[MATCH_KEYS + ["success"]], on=MATCH_KEYS,
                                                    suffixes=("_a", "_b"))  # fmt: skip
     if pairs.empty:

@@ -8,13 +8,14 @@ Tables group the episodes of `load_runs` (one row per episode) by a *grouping*, 
 | `axis`, `attribute` | `axes`, `attributes` | `;`-lists: an episode counts once under each of its values |
 | `difficulty` | `difficulty` | simple, moderate, complex in that order |
 | `scene`, `variant`, `robot`, `run`, `condition` | `scene`, `instruction_variant`, `robot`, `run`, `condition` | |
+| `simulator` | `simulator` | robolab_ms, or robolab-isaac for episodes of a RoboLab run folder |
 | `num_objects` | `num_objects` | bodies in the task's scene |
 | `episode_length` | `episode_seconds` | the task's time limit in seconds |
 | `wrong_objects` | `wrong_object_grasped` | wrong objects grasped in the episode: 0, 1, 2, 3+ |
 | any other column | itself | numbers with more than `bins` distinct values are cut into `bins` equal-count bins |
 
-Every table has the columns of `OUTCOME_COLUMNS`, `METRIC_COLUMNS` and one per event type (mean count per
-episode). Filters (`filter_episodes`) keep episodes by task, policy, attribute, axis and conditions on any column
+Every table has the columns of `OUTCOME_COLUMNS`, `METRIC_COLUMNS` (and `LEGACY_METRIC_COLUMNS` where the episodes
+have them) and one per event type (mean count per episode). Filters (`filter_episodes`) keep episodes by task, policy, attribute, axis and conditions on any column
 (`Condition`, e.g. `light_color=red`, `num_objects>=10`).
 """
 
@@ -31,8 +32,9 @@ import pandas as pd
 
 from robolab_ms.analysis.analyze import DEFAULT_BINS
 from robolab_ms.analysis.runs import DIFFICULTY_ORDER, TASK_COLUMNS, explode_column
+from robolab_ms.analysis.tables import LEGACY_METRIC_COLUMNS as _LEGACY_METRIC_SOURCES
 from robolab_ms.analysis.tables import METRIC_COLUMNS as _METRIC_SOURCES
-from robolab_ms.analysis.tables import success_interval
+from robolab_ms.analysis.tables import metric_columns, success_interval
 from robolab_ms.errors import RoboLabError, did_you_mean
 from robolab_ms.eval.results import EpisodeResult
 from robolab_ms.tasks.events import EVENT_TYPES
@@ -52,12 +54,14 @@ GROUPINGS = {
     "robot": "robot",
     "run": "run",
     "condition": "condition",
+    "simulator": "simulator",
 }  # fmt: skip
 STANDARD_VIEWS = ("task", "axis", "attribute", "difficulty", "scene", "variant", "num_objects", "episode_length",
                   "wrong_objects")  # fmt: skip
 OUTCOME_COLUMNS = ("episodes", "successes", "success_%", "success_ci95_low_%", "success_ci95_high_%", "score",
                    "score_fail", "progress", "time_to_success_s", "errors")  # fmt: skip
 METRIC_COLUMNS = tuple(column for _, column, _ in _METRIC_SOURCES)
+LEGACY_METRIC_COLUMNS = tuple(column for _, column, _ in _LEGACY_METRIC_SOURCES)
 TASK_DETAIL_COLUMNS = ("scene", "difficulty", "difficulty_score", "num_subtasks", "num_objects", "episode_seconds",
                        "axes", "attributes")  # fmt: skip
 UNKNOWN = "(unknown)"
@@ -115,7 +119,7 @@ def outcome_row(frame: pd.DataFrame) -> dict:
         "time_to_success_s": _mean(frame, "time_to_success_s"),
         "errors": int(frame["error"].notna().sum()) if "error" in frame else 0,
     }
-    row.update({column: _mean(frame, column) for column in METRIC_COLUMNS})
+    row.update({column: _mean(frame, column) for column in metric_columns(frame)})
     row.update({kind: _mean(frame, kind) for kind in EVENT_TYPES})
     return row
 
@@ -157,7 +161,7 @@ def equal_count_bins(values: pd.Series, bins: int) -> pd.Categorical:
 def parameter_columns(episodes: pd.DataFrame) -> list[str]:
     """The drawn variation parameters recorded in `episodes` (docs/variations.md), those that vary, sorted."""
     fixed = {f.name for f in fields(EpisodeResult)} | {"run", "events", "time_to_success_s", *TASK_COLUMNS,
-                                                       *METRIC_COLUMNS, *EVENT_TYPES}  # fmt: skip
+                                                       *METRIC_COLUMNS, *LEGACY_METRIC_COLUMNS, *EVENT_TYPES}  # fmt: skip
     return sorted(
         column for column in episodes.columns
         if column not in fixed and not column.startswith(("objects_", "_")) and episodes[column].nunique() > 1

@@ -13,8 +13,10 @@ variation parameters) plus:
 | `episode_seconds` | the task's time limit |
 | `time_to_success_s` | seconds until success (`success_step` / 15 Hz); NaN for failures |
 
-Task columns come from the task files known now (shipped, `$ROBOLAB_CONTENT`, `--content`); a task that no file
-describes keeps them empty and is named in `RunSet.unknown_tasks`.
+Task columns come from the task files known now (shipped, `$ROBOLAB_CONTENT`, `--content`), else from RoboLab-120's
+facts (robolab_ms/tasks/robolab120.yaml); a task that neither describes keeps them empty and is named in
+`RunSet.unknown_tasks`. A RoboLab run folder (its `episode_results.jsonl`) is read by `robolab_results`: its
+episodes carry `simulator` robolab-isaac and the policy name `<policy>@robolab-isaac`.
 """
 
 from __future__ import annotations
@@ -26,6 +28,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from robolab_ms.analysis.robolab_results import (ROBOLAB_RESULTS_FILE, is_robolab_folder, read_robolab_folder,
+                                                 robolab120_task_rows)  # fmt: skip
 from robolab_ms.analysis.tables import episode_frame
 from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, read_results
@@ -51,7 +55,8 @@ class RunSet:
 
 def task_table(tasks: Iterable[str] | None = None) -> pd.DataFrame:
     """One row per known task (index: task name) with the task columns of the module docstring. `tasks` limits
-    the rows to those names; names no task file describes are left out."""
+    the rows to those names; a name no task file describes takes RoboLab-120's facts of that task
+    (robolab_ms/tasks/robolab120.yaml), and names neither knows are left out."""
     from robolab_ms.tasks.spec import load_all_tasks
 
     wanted = None if tasks is None else set(tasks)
@@ -70,6 +75,8 @@ def task_table(tasks: Iterable[str] | None = None) -> pd.DataFrame:
             "num_objects": len(spec.scene.objects),
             "episode_seconds": spec.episode_seconds,
         })  # fmt: skip
+    if wanted:
+        rows += robolab120_task_rows(wanted - {row["task"] for row in rows})
     return pd.DataFrame(rows, columns=["task", *TASK_COLUMNS]).set_index("task")
 
 
@@ -87,9 +94,14 @@ def load_runs(folders: Sequence[str | Path], task_info: pd.DataFrame | None = No
     for path, label in zip(paths, labels):
         if not path.is_dir():
             raise RoboLabError(f"{path}: no such folder; give a folder written by `robolab eval --out DIR`")
-        if not (path / EPISODES_FILE).exists():
-            raise RoboLabError(f"{path}: no {EPISODES_FILE} in it; is it a results folder of `robolab eval`?")
-        for result in read_results(path):
+        if is_robolab_folder(path):
+            folder_results = read_robolab_folder(path)
+        elif (path / EPISODES_FILE).exists():
+            folder_results = read_results(path)
+        else:
+            raise RoboLabError(f"{path}: no {EPISODES_FILE} in it; is it a results folder of `robolab eval`? (A "
+                               f"RoboLab run folder has {ROBOLAB_RESULTS_FILE}.)")  # fmt: skip
+        for result in folder_results:
             results[result.key()] = (label, result)
     if not results:
         raise RoboLabError(f"no complete episode in {', '.join(str(p) for p in paths)}; run `robolab eval` first")

@@ -60,10 +60,10 @@ def synthetic_episode(task: str, seed: int, success_probability: float, rng: np.
     events = [{"step": int(rng.integers(1, steps)), "type": "wrong_object_grasped", "object": "distractor"}
               for _ in range(wrong)]  # fmt: skip
     path = float(rng.uniform(0.4, 1.5)) * (steps / max_steps + 0.5)
-    metrics = {"ee_sparc": float(-rng.uniform(3, 12)), "joint_sparc": float(-rng.uniform(3, 12)),
-               "ee_jerk": float(rng.uniform(10, 500)), "joint_jerk": float(rng.uniform(10, 500)),
+    metrics = {"ee_sparc": float(-rng.uniform(3, 12)), "joint_sparc_mean": float(-rng.uniform(3, 12)),
+               "ee_isj": float(rng.uniform(10, 500)), "joint_isj": float(rng.uniform(10, 500)),
                "ee_path_length": path, "ee_speed_mean": path / (steps / CONTROL_HZ),
-               "ee_speed_max": float(rng.uniform(0.2, 0.6)), "joint_tracking_rmse": float(rng.uniform(0.01, 0.05)),
+               "ee_speed_max": float(rng.uniform(0.2, 0.6)), "joint_rmse_mean": float(rng.uniform(0.01, 0.05)),
                "joint_tracking_max": float(rng.uniform(0.05, 0.2))}  # fmt: skip
     return EpisodeResult(
         task=task, instruction_variant=variant, instruction=f"(synthetic) {task}", robot="droid", policy=policy,

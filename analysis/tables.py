@@ -29,14 +29,25 @@ KEYS = ["policy", "robot", "task", "instruction_variant"]
 # (metric key in a result line, table column, factor): lengths and speeds are shown in cm and cm/s, like RoboLab
 METRIC_COLUMNS = (
     ("ee_sparc", "ee_sparc", 1.0),
-    ("joint_sparc", "joint_sparc", 1.0),
-    ("ee_jerk", "ee_jerk_m2_s5", 1.0),
-    ("joint_jerk", "joint_jerk_rad2_s5", 1.0),
+    ("joint_sparc_mean", "joint_sparc_mean", 1.0),
+    ("ee_isj", "ee_isj_m2_s5", 1.0),
+    ("joint_isj", "joint_isj_rad2_s5", 1.0),
     ("ee_path_length", "ee_path_cm", 100.0),
     ("ee_speed_mean", "ee_speed_mean_cm_s", 100.0),
     ("ee_speed_max", "ee_speed_max_cm_s", 100.0),
-    ("joint_tracking_rmse", "joint_tracking_rmse_rad", 1.0),
+    ("joint_rmse_mean", "joint_rmse_mean_rad", 1.0),
     ("joint_tracking_max", "joint_tracking_max_rad", 1.0),
+)
+# the metrics of results-version-1 lines (eval.metrics.LEGACY_METRIC_NAMES): columns only where such lines are read
+LEGACY_METRIC_COLUMNS = (
+    ("ee_sparc_v1", "ee_sparc_v1", 1.0),
+    ("joint_sparc_v1", "joint_sparc_v1", 1.0),
+    ("ee_jerk_v1", "ee_jerk_v1_m2_s5", 1.0),
+    ("joint_jerk_v1", "joint_jerk_v1_rad2_s5", 1.0),
+    ("ee_path_length_v1", "ee_path_v1_cm", 100.0),
+    ("ee_speed_mean_v1", "ee_speed_mean_v1_cm_s", 100.0),
+    ("ee_speed_max_v1", "ee_speed_max_v1_cm_s", 100.0),
+    ("joint_tracking_rmse_v1", "joint_tracking_rmse_v1_rad", 1.0),
 )
 OUTCOME_COLUMNS = ("episodes", "success_%", "success_ci95_low_%", "success_ci95_high_%", "score", "score_fail",
                    "progress", "mean_steps", "errors")  # fmt: skip
@@ -66,7 +77,7 @@ def _summary_row(frame: pd.DataFrame) -> dict:
         "progress": frame["progress"].mean(),
         "mean_steps": frame["steps"].mean(),
         "errors": int(frame["error"].notna().sum()),
-        **_spread(frame, [column for _, column, _ in METRIC_COLUMNS]),
+        **_spread(frame, metric_columns(frame)),
         **_spread(frame, list(EVENT_TYPES)),
     }
 
@@ -81,18 +92,30 @@ def _spread(frame: pd.DataFrame, columns: list[str]) -> dict[str, float]:
     return row
 
 
+def metric_columns(frame: pd.DataFrame) -> list[str]:
+    """The metric columns a table of `frame` shows: every current one, and the version-1 ones `frame` has."""
+    legacy = [column for _, column, _ in LEGACY_METRIC_COLUMNS if column in frame]
+    return [column for _, column, _ in METRIC_COLUMNS] + legacy
+
+
 def episode_frame(results: Sequence[EpisodeResult]) -> pd.DataFrame:
     """One row per episode: the result fields, one column per metric (table units) and per event type (count),
-    and `objects_<event type>` listing the objects an object event fired for."""
+    and `objects_<event type>` listing the objects an object event fired for. Version-1 metrics get their
+    `LEGACY_METRIC_COLUMNS` only when some episode has them."""
     rows = []
+    legacy_present = {key for result in results for key in (result.metrics or {})}
+    legacy = [entry for entry in LEGACY_METRIC_COLUMNS if entry[0] in legacy_present]
     for result in results:
         row = {key: value for key, value in asdict(result).items() if key not in ("metrics", "event_counts",
                                                                                "event_objects", "events", "variation")}  # fmt: skip
         row.update(getattr(result, "variation", None) or {})  # drawn variation parameters, one column each
-        for key, column, factor in METRIC_COLUMNS:
+        for key, column, factor in (*METRIC_COLUMNS, *legacy):
             value = (result.metrics or {}).get(key)
             row[column] = float("nan") if value is None else float(value) * factor
-        counts, objects = event_tallies(result.events)  # from the ordered list: older lines have no tallies
+        if result.events or not result.event_counts:  # the ordered list: older lines have no tallies
+            counts, objects = event_tallies(result.events)
+        else:  # tallies without a list (a RoboLab run folder's line)
+            counts, objects = result.event_counts, result.event_objects
         for kind in EVENT_TYPES:
             row[kind] = counts.get(kind, 0)
         for kind, names in objects.items():
@@ -150,8 +173,8 @@ def summary_markdown(table: pd.DataFrame) -> str:
     keys = table[KEYS]
     outcomes = pd.concat([keys, table[list(OUTCOME_COLUMNS)]], axis=1)
     trajectory = keys.copy()
-    for _, column, _ in METRIC_COLUMNS:
-        trajectory[column] = _mean_sd(table, column, 3 if "jerk" not in column else 1)
+    for column in metric_columns(table):
+        trajectory[column] = _mean_sd(table, column, 1 if ("isj" in column or "jerk" in column) else 3)
     events = keys.copy()
     for kind in EVENT_TYPES:
         if table[kind].fillna(0).any():

@@ -26,6 +26,8 @@ control_hz, cameras, arm joint names, score, progress, events, error, layout_ver
 | `obs/extra/gripper_position` | (T + 1, 1) float32 | gripper closed fraction, 0 open .. 1 closed |
 | `obs/sensor_data/<camera>/rgb` | (T + 1, H, W, 3) uint8 | policy camera images (`--record-images` only; gzip) |
 | `robolab/joint_position` | (T + 1, 7) float32 | arm joint positions (rad), DROID's proprio with `gripper_position` |
+| `robolab/joint_velocity` | (T + 1, 7) float32 | arm joint velocities (rad/s), as the simulator reports them |
+| `robolab/gripper_base_position` | (T + 1, 3) float32 | position of the gripper's base link (m), the point of the end-effector metrics |
 | `robolab/score`, `robolab/progress` | (T,) float32 | task score and subtask progress after each step |
 
 Row t of the (T + 1) arrays is what the policy observed before action t; row T is the final state. Files are
@@ -135,6 +137,7 @@ class EpisodeRecorder:
         self.seed, self.max_steps = int(seed), int(max_steps or 0)
         self.stem = episode_stem(base.instruction_variant, base.robot.uid, self.policy, seed)
         self.ee, self.arm, self.qpos, self.gripper = [], [], [], []
+        self.gripper_base, self.arm_velocity = [], []
         self.actions, self.success, self.score, self.progress, self.terminated, self.truncated = [], [], [], [], [], []
         self.states: list[dict[str, np.ndarray]] = []
         self._started = True
@@ -181,7 +184,8 @@ class EpisodeRecorder:
         self._started = False
         targets = np.clip(np.asarray(self.actions, dtype=np.float64).reshape(-1, self.arm_dims + 1)[:, : self.arm_dims],
                           self.arm_low, self.arm_high)  # fmt: skip
-        metrics = trajectory_metrics(np.asarray(self.ee)[:, :3], np.asarray(self.arm), targets, self.rate_hz)
+        metrics = trajectory_metrics(np.asarray(self.gripper_base), np.asarray(self.arm), targets, 1.0 / self.rate_hz,
+                                     joint_velocities=np.asarray(self.arm_velocity))  # fmt: skip
         extras["metrics"] = {key: (None if math.isnan(value) else round(value, 6)) for key, value in metrics.items()}
         if self.options.writes_file:
             self._write_file(info, events, error)
@@ -210,6 +214,8 @@ class EpisodeRecorder:
         self.ee.append(_numpy(base.tcp_pose().raw_pose)[0].astype(np.float32))
         self.qpos.append(_numpy(base.agent.robot.get_qpos())[0].astype(np.float32))
         self.arm.append(_numpy(base.arm_qpos())[0].astype(np.float32))
+        self.arm_velocity.append(_numpy(base.arm_qvel())[0].astype(np.float32))
+        self.gripper_base.append(_numpy(base.gripper_base_position())[0].astype(np.float32))
         self.gripper.append(float(_numpy(base.gripper_closed_fraction()).reshape(-1)[0]))
 
     def _add_video_frame(self, views: dict[str, np.ndarray], step: int, info: dict) -> None:
@@ -260,6 +266,8 @@ class EpisodeRecorder:
         group.create_dataset("obs/extra/tcp_pose", data=np.asarray(self.ee, dtype=np.float32))
         group.create_dataset("obs/extra/gripper_position", data=np.asarray(self.gripper, dtype=np.float32)[:, None])
         group.create_dataset("robolab/joint_position", data=np.asarray(self.arm, dtype=np.float32))
+        group.create_dataset("robolab/joint_velocity", data=np.asarray(self.arm_velocity, dtype=np.float32))
+        group.create_dataset("robolab/gripper_base_position", data=np.asarray(self.gripper_base, dtype=np.float32))
         group.create_dataset("robolab/score", data=np.asarray(self.score, dtype=np.float32))
         group.create_dataset("robolab/progress", data=np.asarray(self.progress, dtype=np.float32))
         self._h5.close()

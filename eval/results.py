@@ -2,8 +2,10 @@
 
 Every line records the tuple that defines its episode (task, instruction variant, robot, policy, seed, and the
 variation settings with the parameters they drew), so any episode can be replayed, and the outcome (success, score,
-progress, steps, timings, error). Tables are derived from these lines, never the other way round. A run interrupted mid-line leaves at most one partial last line, which
-`read_results` ignores, so a rerun resumes after the last complete episode.
+progress, steps, timings, error) with its trajectory metrics. Tables are derived from these lines, never the other
+way round. Lines of results version 1 still load; their trajectory metrics, computed before RoboLab's definitions
+were adopted, come back under the names of `eval.metrics.LEGACY_METRIC_NAMES`. A run interrupted mid-line leaves at
+most one partial last line, which `read_results` ignores, so a rerun resumes after the last complete episode.
 """
 
 from __future__ import annotations
@@ -19,10 +21,14 @@ from typing import Any
 import numpy as np
 
 from robolab_ms.errors import RoboLabError
+from robolab_ms.eval.metrics import legacy_metrics
 
 EPISODES_FILE = "episodes.jsonl"
 WRITER_LOCK_FILE = ".writer.lock"  # held by the run that writes the folder (see exclusive_writer)
-RESULTS_VERSION = 1
+# 2: trajectory metrics as RoboLab defines them (eval.metrics); lines of version 1 load their metrics under the
+# names of eval.metrics.LEGACY_METRIC_NAMES
+RESULTS_VERSION = 2
+SIMULATOR = "robolab_ms"  # the `simulator` of the episodes `robolab eval` runs
 
 
 @dataclass
@@ -58,6 +64,7 @@ class EpisodeResult:
     variations: str | None = None  # the variation settings (`--vary` text; None: the scenes as they are)
     condition: str | None = None  # the suite condition the episode ran under (`--suite`), if any
     variation: dict[str, float | int | str] = field(default_factory=dict)  # drawn parameters, flat (docs/variations.md)
+    simulator: str = SIMULATOR  # what ran the episode: robolab_ms, or robolab-isaac for a RoboLab run folder's line
     version: int = RESULTS_VERSION
 
     def key(self) -> tuple:
@@ -133,6 +140,8 @@ def read_results(out_dir: Path) -> list[EpisodeResult]:
             result = EpisodeResult(**{k: v for k, v in record.items() if k in known})
         except (json.JSONDecodeError, TypeError, AttributeError):
             continue
+        if record.get("version", 1) < 2 and isinstance(result.metrics, dict):
+            result.metrics, result.version = legacy_metrics(result.metrics), 1
         results[result.key()] = result
     return list(results.values())
 

@@ -16,8 +16,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from robolab_ms.agents.droid_model import TCP_DEPTH
 from robolab_ms.analysis.tables import success_interval
 from robolab_ms.cli import main
+from robolab_ms.eval.metrics import METRIC_KEYS, trajectory_metrics
 from robolab_ms.eval.recording import replay_recording
 
 ROBOLAB = str(Path(sys.executable).with_name("robolab"))
@@ -48,14 +50,14 @@ def test_result_lines_carry_metrics_tallies_and_files(recorded):
     assert [r["seed"] for r in results] == [0, 1]
     for result in results:
         assert result["metrics"]["ee_path_length"] > 0  # a random policy moves the arm
-        assert result["metrics"]["joint_tracking_rmse"] > 0
-        assert set(result["metrics"]) >= {"ee_sparc", "joint_sparc", "ee_jerk", "joint_jerk", "ee_speed_max"}
+        assert result["metrics"]["joint_rmse_mean"] > 0
+        assert set(result["metrics"]) == set(METRIC_KEYS) and result["version"] == 2
         assert sum(result["event_counts"].values()) == len(result["events"])
         assert (recorded / result["recording"]).exists() and (recorded / result["video"]).exists()
     summary = pd.read_csv(recorded / "summary.csv")
     assert {"ee_sparc", "ee_sparc_sd", "ee_speed_mean_cm_s", "gripper_fully_closed"} <= set(summary.columns)
     per_task = pd.read_csv(recorded / "tasks" / f"{TASK}.csv")
-    assert per_task["seed"].tolist() == [0, 1] and "joint_tracking_rmse_rad" in per_task.columns
+    assert per_task["seed"].tolist() == [0, 1] and "joint_rmse_mean_rad" in per_task.columns
     manifest = json.loads((recorded / "manifest.json").read_text())
     assert "--record-images" in manifest["rerun"] and "--video" in manifest["rerun"]
     assert manifest["config"]["max_steps"] == STEPS and manifest["env_kwargs"]["obs_mode"] == "state_dict"
@@ -78,6 +80,22 @@ def test_recording_is_a_maniskill_trajectory_with_our_extras(recorded):
         assert images.shape == (STEPS + 1, 180, 320, 3) and images.dtype == np.uint8
         assert images[-1].std() > 10  # a rendered scene, not a blank frame
         assert np.allclose(traj["robolab/joint_position"][1:], traj["robolab/joint_position"][1:])
+
+
+def test_metrics_of_a_line_follow_the_gripper_base_link_of_its_recording(recorded):
+    result = lines(recorded)[0]
+    with h5py.File(recorded / result["recording"]) as h5:
+        traj = h5["traj_0"]
+        base, tcp = traj["robolab/gripper_base_position"][()], traj["obs/extra/tcp_pose"][()][:, :3]
+        joints, velocity = traj["robolab/joint_position"][()], traj["robolab/joint_velocity"][()]
+        targets = traj["actions"][()][:, :7]
+    assert base.shape == (STEPS + 1, 3) and velocity.shape == (STEPS + 1, 7)
+    # the base link stays TCP_DEPTH from the point between the pads, wherever the gripper goes
+    assert np.allclose(np.linalg.norm(tcp - base, axis=1), TCP_DEPTH, atol=1e-4)
+    assert np.linalg.norm(base[-1] - base[0]) > 0.01  # and it moved
+    expected = trajectory_metrics(base, joints, targets, 1 / 15, joint_velocities=velocity)
+    for key, value in expected.items():
+        assert result["metrics"][key] == pytest.approx(value, rel=1e-4, abs=1e-6), key
 
 
 def test_robolab_replay_reproduces_every_recorded_episode(recorded):

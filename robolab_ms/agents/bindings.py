@@ -2,7 +2,8 @@
 
 A task spec names no robot; the environment keyword `robot_uids` picks one of `ROBOT_BINDINGS`. A binding says
 which joints form the arm, the home pose, the finger links (for grasped / released / wrong-object predicates and
-events), how to read the gripper's closed fraction, and which controller value opens or closes the gripper.
+events), the gripper's base link (the point whose path the trajectory metrics measure), how to read the gripper's
+closed fraction, and which controller value opens or closes the gripper.
 Every robot takes the same action layout: absolute arm joint targets followed by one gripper value in [0, 1]
 (0 open, 1 closed, above 0.5 closes).
 """
@@ -35,6 +36,9 @@ class RobotBinding:
     gripper_open_action: float  # controller value for "open" (the last action entry)
     gripper_closed_action: float
     wrist_mount_link: str  # the wrist camera rides on this link
+    # the link the end-effector metrics follow: RoboLab's is the Robotiq gripper's base link; other robots use the
+    # link their gripper is built on (docs/results.md)
+    gripper_base_link: str
     # (eye, target, up) in the mount link's frame; None: DROID's wrist camera pose (robolab_ms.envs.cameras)
     wrist_look_at: tuple[tuple[float, float, float], ...] | None = None
     base_yaw: float = 0.0  # rotation of the robot base about z, rad, so that the arm faces the table (+x)
@@ -68,6 +72,7 @@ ROBOT_BINDINGS: dict[str, RobotBinding] = {
             gripper_open_action=0.0,
             gripper_closed_action=droid_model.GRIPPER_CLOSED_RAD,
             wrist_mount_link=droid_model.GRIPPER_BASE_LINK,
+            gripper_base_link=droid_model.GRIPPER_BASE_LINK,
             notes="Franka Panda + Robotiq 2F-85 (DROID); 8-D action",
         ),
         RobotBinding(
@@ -81,6 +86,7 @@ ROBOT_BINDINGS: dict[str, RobotBinding] = {
             gripper_open_action=1.0,  # ManiSkill's Panda gripper controller: +1 open, -1 closed
             gripper_closed_action=-1.0,
             wrist_mount_link="panda_hand",
+            gripper_base_link="panda_hand",  # the Franka hand's body, which carries both fingers
             wrist_look_at=((0.06, 0.0, 0.0), (0.0, 0.0, 0.2), (1.0, 0.0, 0.0)),  # beside the hand, along the fingers
             notes="ManiSkill's Franka Panda with the Franka hand; 8-D action",
         ),
@@ -95,6 +101,7 @@ ROBOT_BINDINGS: dict[str, RobotBinding] = {
             gripper_open_action=0.5,  # the jaw joint's absolute target, rad
             gripper_closed_action=-1.1,
             wrist_mount_link="Fixed_Jaw",
+            gripper_base_link="Fixed_Jaw",  # the gripper body: it carries the moving jaw's joint
             wrist_look_at=((0.0, -0.02, 0.06), (0.01, -0.15, 0.0), (0.0, 0.0, 1.0)),  # above the fixed jaw
             base_yaw=math.pi / 2,
             notes="TheRobotStudio SO-100 (5 joints + jaw, in mani-skill's package); 6-D action; reach about 0.4 m",

@@ -262,6 +262,15 @@ class RoboLabEnv(BaseEnv):
         """Arm joint positions (rad), gripper excluded: (num_envs, arm joints)."""
         return self.agent.robot.get_qpos()[:, self._arm_joint_index]
 
+    def arm_qvel(self) -> torch.Tensor:
+        """Arm joint velocities (rad/s), gripper excluded: (num_envs, arm joints)."""
+        return self.agent.robot.get_qvel()[:, self._arm_joint_index]
+
+    def gripper_base_position(self) -> torch.Tensor:
+        """Position of the gripper's base link (the robot binding's `gripper_base_link`), the point the
+        end-effector metrics follow: (num_envs, 3), m."""
+        return self.agent.robot.links_map[self.robot.gripper_base_link].pose.p
+
     def set_arm_qpos(self, arm_qpos: torch.Tensor | list[float]) -> None:
         """Teleport the arm to these joint positions (rad), for every environment; the gripper stays as it is."""
         qpos = self.agent.robot.get_qpos().clone()
