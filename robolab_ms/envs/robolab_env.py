@@ -293,20 +293,22 @@ class RoboLabEnv(BaseEnv):
 
     def get_state_dict(self) -> dict[str, Any]:
         """ManiSkill's state (poses, velocities, joint states, controller) plus `episode`: the seed and the step of
-        the episode this state belongs to (-1 when the episode cannot be replayed)."""
+        the episode this state belongs to (-1 when the episode cannot be replayed), each (num_envs, 1) int64, shaped
+        like every other entry (num_envs, D) so that ManiSkill's trajectory tools handle it as they handle those."""
         state = super().get_state_dict()
         seed = -1 if self._episode_seed_used is None else self._episode_seed_used
         state[EPISODE_STATE_KEY] = {
-            "seed": torch.full((self.num_envs,), seed, dtype=torch.int64),
-            "step": self._elapsed_steps.detach().to("cpu", torch.int64).clone(),
+            "seed": torch.full((self.num_envs, 1), seed, dtype=torch.int64),
+            "step": self._elapsed_steps.detach().to("cpu", torch.int64).reshape(self.num_envs, 1).clone(),
         }
         return state
 
     def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None) -> None:
         """Restore a state. A state of the current episode is restored exactly (the scene is rebuilt and the
         episode's actions replayed up to its step), so the same actions from there give bit-identical results;
-        other states are set as ManiSkill sets them."""
-        state = dict(state)
+        other states are set as ManiSkill sets them. Entries without the leading num_envs dimension (one step of a
+        trajectory file's `env_states`) count as one environment's, as ManiSkill reads them."""
+        state = _batched_state(state)
         episode = state.pop(EPISODE_STATE_KEY, None)
         if episode is not None and env_idx is None and self._restore_by_replay(state, episode):
             return
@@ -400,6 +402,17 @@ def _action_copy(action: Any) -> Any:
     if isinstance(action, dict):
         return {key: _action_copy(value) for key, value in action.items()}
     return action
+
+
+def _batched_state(state: dict) -> dict:
+    """A (nested) state dict with a leading num_envs dimension on every entry: one-dimensional entries become (1, D)."""
+    batched = {}
+    for key, value in state.items():
+        if isinstance(value, dict):
+            batched[key] = _batched_state(value)
+        else:
+            batched[key] = value[None] if len(value.shape) == 1 else value
+    return batched
 
 
 def _same_state(a: Any, b: Any) -> bool:
