@@ -6,7 +6,7 @@ smallest settings (the script runs end to end; its numbers mean nothing), and th
 
 Each script runs as its own process in a fresh folder (relative output paths such as results/ land there; a quick
 run writes no doc or picture), two at a time: most of their time is start-up, environment builds and first frames,
-about 170 CPU seconds for all of them, so the file takes about 1.5 minutes on an idle 2-core machine.
+about 180 CPU seconds for all of them, so the file takes about 2 minutes on an idle 2-core machine.
 """
 
 from __future__ import annotations
