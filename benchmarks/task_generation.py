@@ -66,8 +66,8 @@ def main(argv: list[str] | None = None) -> int:
     catalog = load_catalog()
     judge_table = judge_on_handwritten(catalog)
     print(judge_table, flush=True)
-    rows = generated_tasks(catalog, out, args.methods, args.seeds, args.rounds, prompts_per_theme=1 if args.quick else None,
-                           themes=1 if args.quick else None)
+    first = 1 if args.quick else None
+    rows = generated_tasks(catalog, out, args.methods, args.seeds, args.rounds, prompts_per_theme=first, themes=first)
     with (out / "tasks.csv").open("w", newline="", encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
@@ -147,8 +147,8 @@ def judge_on_handwritten(catalog) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ 3
-def generated_tasks(catalog, out: Path, methods: list[str], seeds: int, rounds: int, prompts_per_theme: int | None = None,
-                    themes: int | None = None) -> list[dict]:
+def generated_tasks(catalog, out: Path, methods: list[str], seeds: int, rounds: int,
+                    prompts_per_theme: int | None = None, themes: int | None = None) -> list[dict]:
     """A generated task per prompt (the first `prompts_per_theme` of the first `themes` themes; default all) and
     method."""
     prompts = yaml.safe_load(PROMPTS.read_text(encoding="utf-8"))

@@ -186,7 +186,8 @@ def test_check_env_treats_our_env_as_it_treats_pickcube():
     for env_id in ("PickCube-v1", ENV_ID):
         env = gym.make(env_id, obs_mode="state", render_backend="none")
         try:
-            results[env_id] = {"raw": _check_results(env.unwrapped), "CPUGymWrapper": _check_results(CPUGymWrapper(env))}
+            results[env_id] = {"raw": _check_results(env.unwrapped),
+                               "CPUGymWrapper": _check_results(CPUGymWrapper(env))}
         finally:
             env.close()
     assert results[ENV_ID] == results["PickCube-v1"]

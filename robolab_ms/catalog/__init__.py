@@ -235,7 +235,8 @@ class CatalogObject:
         elif part.shape == "sphere":
             builder.add_sphere_visual(pose=pose, radius=part.size[0], material=render_material)
         elif part.shape == "capsule":
-            builder.add_capsule_visual(pose=pose, radius=part.size[0], half_length=part.size[1], material=render_material)
+            builder.add_capsule_visual(pose=pose, radius=part.size[0], half_length=part.size[1],
+                                       material=render_material)
         else:  # SAPIEN's cylinder visual has no texture coordinates: a generated mesh carries the texture
             builder.add_visual_mesh(cylinder_mesh(part.size[0], part.size[1]), render_material, pose)
 

@@ -81,8 +81,8 @@ class RoboLabSceneBuilder(SceneBuilder):
         self.ground = self._build_floor()
         self.backdrop = self._build_backdrop() if self.renders else None
         if self.renders:
-            light = self.light.environment
-            environment_map = lighting_cubemap(self.background.name, light) if light != 1.0 else lighting_cubemap(self.background.name)
+            light, name = self.light.environment, self.background.name
+            environment_map = lighting_cubemap(name, light) if light != 1.0 else lighting_cubemap(name)
             for sub_scene in self.scene.sub_scenes:
                 sub_scene.set_environment_map(environment_map)
 
