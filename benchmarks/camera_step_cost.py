@@ -104,7 +104,11 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=60, help="control steps per timed block")
     parser.add_argument("--rounds", type=int, default=5, help="timed blocks of each kind")
     parser.add_argument("--shadow-map", type=int, default=None, help="shadow map size (default: the builder's)")
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.steps, args.rounds = 2, 1
     if args.shadow_map:
         RoboLabSceneBuilder.shadow_map_size = args.shadow_map
 

@@ -32,9 +32,23 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default: 2)")
     parser.add_argument("--seed", type=int, default=0, help="the episode seed of every task (default: 0)")
-    parser.add_argument("--out", type=Path, default=Path("results/oracle_sweep"), help="results folder")
+    parser.add_argument("--out", type=Path, default=None, help="results folder (default: results/oracle_sweep; "
+                        "with --quick a temporary one)")
     parser.add_argument("--task", nargs="+", help="only these tasks (default: every task)")
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.task, args.workers = [BASELINE_TASK], 1
+    if args.out is None and args.quick:
+        with tempfile.TemporaryDirectory(prefix="oracle-sweep-quick-") as folder:  # leaves nothing a later run resumes
+            sweep(args, Path(folder))
+    else:
+        sweep(args, args.out or Path("results/oracle_sweep"))
+
+
+def sweep(args: argparse.Namespace, out: Path) -> None:
+    """The baseline episode, then the sweep into `out`; prints the results."""
     tasks = tuple(args.task or task_names())
 
     with tempfile.TemporaryDirectory() as scratch:
@@ -47,12 +61,12 @@ def main() -> None:
 
     config = EvalConfig(tasks=tasks, episodes=1, first_seed=args.seed)
     start = time.perf_counter()
-    results = run_parallel(make_policy("oracle"), PolicySpec("oracle", PolicyOptions()), config, args.out,
+    results = run_parallel(make_policy("oracle"), PolicySpec("oracle", PolicyOptions()), config, out,
                            workers=args.workers)  # fmt: skip
     seconds = time.perf_counter() - start
     results = [r for r in results if r.seed == args.seed and r.task in tasks]
-    args.out.mkdir(parents=True, exist_ok=True)
-    table = args.out / "oracle_sweep.csv"
+    out.mkdir(parents=True, exist_ok=True)
+    table = out / "oracle_sweep.csv"
     with table.open("w", newline="") as file:
         writer = csv.writer(file)
         writer.writerow(["task", "success", "steps", "wall_seconds", "error"])
@@ -67,7 +81,8 @@ def main() -> None:
     else:
         verdict = f"{len(tasks)} of {len(task_names())} tasks; the {TARGET_MINUTES:g}-min target is for all of them"
     print(f"sweep: {len(results)} tasks, one oracle episode each, {args.workers} workers: {minutes:.1f} min "
-          f"({verdict}); {seconds / baseline_seconds:.0f} baseline episodes")  # fmt: skip
+          f"({verdict})")  # fmt: skip
+    print(f"ratio sweep / baseline episode: {seconds / baseline_seconds:.1f} (the sweep's time in baseline episodes)")
     print(f"solved: {solved} of {len(results)}; errors: {errors}; "
           f"summed episode time {sum(r.wall_seconds for r in results) / 60:.1f} min")  # fmt: skip
     print("slowest:", ", ".join(f"{r.task} {r.wall_seconds:.0f} s" for r in

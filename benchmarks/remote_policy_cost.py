@@ -53,7 +53,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=120, help="control steps per episode (default: 120)")
     parser.add_argument("--rounds", type=int, default=2, help="episodes of each path, interleaved (default: 2)")
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.steps, args.rounds = 8, 1
 
     port = free_port()
     server = start_server(port)

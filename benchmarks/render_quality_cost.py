@@ -90,7 +90,11 @@ def main() -> None:
     parser.add_argument("--hdri", type=Path, default=None)
     parser.add_argument("--denoiser", default=None, choices=["optix", "oidn", "none"],
                         help="the ray tracer's denoiser (default: the `high` setting's)")
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.width, args.height, args.frames = 64, 36, 1
     if args.hdri:
         backgrounds.hdri_dir = lambda: args.hdri
     if args.textures is None:
@@ -127,7 +131,7 @@ def main() -> None:
             image = (np.clip(rgb[..., :3], 0, 1) * 255).astype(np.uint8)
             Image.fromarray(image).save(args.out / f"render_{quality}.png")
     if len(timings) == 2:
-        print(f"high / fast time per frame: {timings['high'] / timings['fast']:.1f} x")
+        print(f"ratio high / fast, time per frame: {timings['high'] / timings['fast']:.1f} x")
 
 
 if __name__ == "__main__":

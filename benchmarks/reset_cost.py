@@ -50,7 +50,11 @@ def main() -> None:
     parser.add_argument("--obs-mode", default="state_dict", help="state_dict (no cameras) or rgb (two cameras)")
     parser.add_argument("--resets", type=int, default=8)
     parser.add_argument("--restore-steps", type=int, default=100, help="the step of the state that is restored")
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.resets, args.restore_steps = 1, 2
 
     kwargs = dict(obs_mode=args.obs_mode, render_backend="cpu")
     reused = gym.make(f"RoboLab-{args.task}-v1", reconfiguration_freq=0, **kwargs)  # the reset before the contract

@@ -38,7 +38,11 @@ def main() -> None:
     parser.add_argument("--epochs", type=int, default=50)
     parser.add_argument("--samples", type=int, default=5000)
     parser.add_argument("--threads", type=int, default=1, help="torch threads (the command's default: 1)")
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.episodes, args.baseline_episodes, args.epochs, args.samples = 60, 30, 2, 50
 
     info = task_table([TASK])
     with tempfile.TemporaryDirectory() as folder:
@@ -64,6 +68,8 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|")
     for name, fit, wall, cpu, method, top in rows:
         print(f"| {name} | {method} | {fit:.1f} | {wall:.1f} | {cpu:.1f} | {cpu / reference[3]:.2f} | {top} |")
+    print(f"ratio analysis CPU time, {args.baseline_episodes} / {args.episodes} episodes (MNPE): "
+          f"{rows[1][3] / reference[3]:.2f}")
 
 
 if __name__ == "__main__":

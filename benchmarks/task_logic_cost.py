@@ -30,7 +30,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=300, help="control steps per timed block")
     parser.add_argument("--rounds", type=int, default=7, help="timed blocks of each kind per situation")
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.steps, args.rounds = 2, 1
 
     env = RoboLabEnv(task=str(TASK), obs_mode="state", render_backend="cpu")
     env.reset(seed=0)

@@ -36,7 +36,11 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=12)
     parser.add_argument("--rounds", type=int, default=3, help="warm passes over the seeds")
     parser.add_argument("--vary", default=EVERY_AXIS)
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.seeds, args.rounds = 1, 1
 
     kwargs = dict(obs_mode="rgb", render_backend="cpu")
     plain = gym.make(f"RoboLab-{args.task}-v1", **kwargs)

@@ -20,7 +20,7 @@ control_hz, cameras, arm joint names, score, progress, events, error, layout_ver
 |---|---|---|
 | `actions` | (T, 8) float32 | what the policy sent: 7 arm joint targets (rad) + gripper (0 open, 1 closed) |
 | `terminated`, `truncated`, `success` | (T,) bool | after each step |
-| `env_states/...` | (T + 1, D) float32 | `env.get_state_dict()` at reset and after each step (replay / set_state_dict) |
+| `env_states/...` | (T + 1, D) | `env.get_state_dict()` at reset and after each step (replay / set_state_dict) |
 | `obs/agent/qpos` | (T + 1, dof) float32 | every robot joint, gripper joints included |
 | `obs/extra/tcp_pose` | (T + 1, 7) float32 | end-effector pose, position + quaternion (w, x, y, z) |
 | `obs/extra/gripper_position` | (T + 1, 1) float32 | gripper closed fraction, 0 open .. 1 closed |
@@ -30,8 +30,9 @@ control_hz, cameras, arm joint names, score, progress, events, error, layout_ver
 | `robolab/gripper_base_position` | (T + 1, 3) float32 | position of the gripper's base link (m), the point of the end-effector metrics |
 | `robolab/score`, `robolab/progress` | (T,) float32 | task score and subtask progress after each step |
 
-Row t of the (T + 1) arrays is what the policy observed before action t; row T is the final state. Files are
-written under `*.partial` names and renamed when complete.
+Row t of the (T + 1) arrays is what the policy observed before action t; row T is the final state. The env states
+are float32 but for `env_states/episode/seed` and `.../step`, int64 (T + 1, 1). Files are written under `*.partial`
+names and renamed when complete.
 """
 
 from __future__ import annotations

@@ -20,6 +20,7 @@ from robolab_ms.catalog.appearance import (
     part_look,
     projected_mesh,
     render_material,
+    scene_renders,
     sidecar_texture_material,
     visual_mesh_builder,
 )
@@ -189,15 +190,17 @@ class CatalogObject:
 
     def build(self, scene: ManiSkillScene | sapien.Scene, name: str, initial_pose: sapien.Pose) -> Actor:
         """Build this object as an actor called `name` (in a ManiSkill scene, or a plain SAPIEN scene): dynamic, or
-        kinematic for a fixture (it stays where it is put; nothing the robot or other objects do moves it)."""
+        kinematic for a fixture (it stays where it is put; nothing the robot or other objects do moves it). In a
+        scene that cannot render it gets its collision shapes only."""
         import sapien
 
         builder = visual_mesh_builder(scene)
         material = sapien.pysapien.physx.PhysxMaterial(self.static_friction, self.dynamic_friction, self.restitution)
+        looks = scene_renders(scene)
         if self.parts:
-            self._add_parts(builder, material)
+            self._add_parts(builder, material, looks)
         else:
-            self._add_mesh(builder, material)
+            self._add_mesh(builder, material, looks)
         builder.initial_pose = initial_pose
         return builder.build_kinematic(name=name) if self.is_fixture else builder.build(name=name)
 
@@ -207,35 +210,42 @@ class CatalogObject:
         colours = self.palette or (self.rgba,)
         return [render_material(part_look(self, tint)) for tint in range(len(colours))]
 
-    def _add_parts(self, builder, material) -> None:
+    def _add_parts(self, builder, material, looks: bool) -> None:
         import sapien
 
-        render_materials = self._render_materials()
+        render_materials = self._render_materials() if looks else []
         for part in self.parts:
             pose = sapien.Pose(p=list(part.position), q=list(part.rotation))
-            render_material = render_materials[min(part.tint, len(render_materials) - 1)]
             common = dict(pose=pose, material=material, density=self.density)
             if part.shape == "box":
                 builder.add_box_collision(half_size=list(part.size), **common)
-                builder.add_visual_mesh(box_mesh(tuple(part.size)), render_material, pose)  # a whole label per face
             elif part.shape == "sphere":
                 builder.add_sphere_collision(radius=part.size[0], **common)
-                builder.add_sphere_visual(pose=pose, radius=part.size[0], material=render_material)
             elif part.shape == "capsule":
                 builder.add_capsule_collision(radius=part.size[0], half_length=part.size[1], **common)
-                builder.add_capsule_visual(
-                    pose=pose, radius=part.size[0], half_length=part.size[1], material=render_material
-                )
-            else:  # SAPIEN's cylinder visual has no texture coordinates: a generated mesh carries the texture
+            else:
                 builder.add_cylinder_collision(radius=part.size[0], half_length=part.size[1], **common)
-                builder.add_visual_mesh(cylinder_mesh(part.size[0], part.size[1]), render_material, pose)
+            if looks:
+                self._add_part_visual(builder, part, pose, render_materials[min(part.tint, len(render_materials) - 1)])
 
-    def _add_mesh(self, builder, material) -> None:
+    @staticmethod
+    def _add_part_visual(builder, part: Part, pose: sapien.Pose, render_material: sapien.render.RenderMaterial) -> None:
+        if part.shape == "box":
+            builder.add_visual_mesh(box_mesh(tuple(part.size)), render_material, pose)  # a whole label per face
+        elif part.shape == "sphere":
+            builder.add_sphere_visual(pose=pose, radius=part.size[0], material=render_material)
+        elif part.shape == "capsule":
+            builder.add_capsule_visual(pose=pose, radius=part.size[0], half_length=part.size[1],
+                                       material=render_material)
+        else:  # SAPIEN's cylinder visual has no texture coordinates: a generated mesh carries the texture
+            builder.add_visual_mesh(cylinder_mesh(part.size[0], part.size[1]), render_material, pose)
+
+    def _add_mesh(self, builder, material, looks: bool) -> None:
         import sapien
 
         transform = self.transform or MeshTransform()
         pose = sapien.Pose(p=list(transform.translation), q=list(transform.quaternion))
-        for path in self.visual_files():
+        for path in self.visual_files() if looks else []:
             if self.source.get("textured"):
                 builder.add_visual_from_file(str(path), pose=pose, scale=list(transform.scale),
                                              material=sidecar_texture_material(path))  # fmt: skip

@@ -8,6 +8,9 @@ per process. Materials carry roughness and metallic values that fit the material
 
 SAPIEN's cylinder visual has no texture coordinates, so cylinders, the floor and the room backdrop are triangle
 meshes made here, attached by `VisualMeshBuilder`.
+
+A scene without a render system (ManiSkill's `render_backend="none"`) has no look at all: `scene_renders` is the one
+check that everything making textures, materials, lights, environment maps or visual shapes asks first.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -28,6 +31,19 @@ if TYPE_CHECKING:
     from robolab_ms.catalog.procedural import Part
 
 TEXTURE_SIZE = 128
+
+
+def scene_renders(scene: Any) -> bool:
+    """Whether `scene` (a ManiSkill scene or a plain SAPIEN scene) has a render system. Without one (ManiSkill's
+    `render_backend="none"`) only what the physics needs is built: no textures, materials, visual shapes, lights,
+    environment map or cameras."""
+    if hasattr(scene, "can_render"):
+        return bool(scene.can_render())
+    try:
+        scene.render_system
+    except RuntimeError:  # SAPIEN: "no system with name [render] is added to scene"
+        return False
+    return True
 
 
 # ---------------------------------------------------------------------------------------------------- materials
@@ -445,8 +461,7 @@ def _with_meshes(base: type) -> type:
         def build_entity(self):
             import sapien
 
-            can_render = self.scene.can_render() if hasattr(self.scene, "can_render") else True
-            if self.visual_records or not self.mesh_visuals or not can_render:
+            if self.visual_records or not self.mesh_visuals or not scene_renders(self.scene):
                 return super().build_entity()
             entity = sapien.Entity()  # only generated meshes: the base builders would skip the render component
             entity.add_component(self.build_render_component())

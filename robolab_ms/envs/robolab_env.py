@@ -39,6 +39,7 @@ from mani_skill.utils.structs.types import SimConfig
 
 from robolab_ms.agents import DEFAULT_ROBOT, ROBOT_BINDINGS, robot_binding
 from robolab_ms.catalog import load_catalog
+from robolab_ms.catalog.appearance import scene_renders
 from robolab_ms.envs import cameras as cameras_module
 from robolab_ms.errors import RoboLabError, UnknownNameError
 from robolab_ms.render_check import NO_DEVICE_HELP
@@ -50,6 +51,7 @@ from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS, load_task
 
 SIM_HZ = 120
 CPU_BACKENDS = ("auto", "cpu", "physx_cpu")
+STATE_OBS_MODES = ("state", "state_dict", "none")  # observation modes that need no renderer
 EPISODE_STATE_KEY = "episode"  # the state dict's entry with the episode's seed and step (see set_state_dict)
 
 
@@ -118,6 +120,7 @@ class RoboLabEnv(BaseEnv):
         self._episode_seed_used: int | None = None  # the seed of the current episode; None when not replayable
         self._replaying = False
         self._episode_options: dict = {}
+        _check_renderer_use(kwargs)
         if kwargs.get("render_backend", "gpu") == "gpu" and not torch.cuda.is_available():
             kwargs["render_backend"] = "cpu"  # what ManiSkill falls back to anyway, without its warning
         try:
@@ -299,20 +302,22 @@ class RoboLabEnv(BaseEnv):
 
     def get_state_dict(self) -> dict[str, Any]:
         """ManiSkill's state (poses, velocities, joint states, controller) plus `episode`: the seed and the step of
-        the episode this state belongs to (-1 when the episode cannot be replayed)."""
+        the episode this state belongs to (-1 when the episode cannot be replayed), each (num_envs, 1) int64, shaped
+        like every other entry (num_envs, D) so that ManiSkill's trajectory tools handle it as they handle those."""
         state = super().get_state_dict()
         seed = -1 if self._episode_seed_used is None else self._episode_seed_used
         state[EPISODE_STATE_KEY] = {
-            "seed": torch.full((self.num_envs,), seed, dtype=torch.int64),
-            "step": self._elapsed_steps.detach().to("cpu", torch.int64).clone(),
+            "seed": torch.full((self.num_envs, 1), seed, dtype=torch.int64),
+            "step": self._elapsed_steps.detach().to("cpu", torch.int64).reshape(self.num_envs, 1).clone(),
         }
         return state
 
     def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None) -> None:
         """Restore a state. A state of the current episode is restored exactly (the scene is rebuilt and the
         episode's actions replayed up to its step), so the same actions from there give bit-identical results;
-        other states are set as ManiSkill sets them."""
-        state = dict(state)
+        other states are set as ManiSkill sets them. Entries without the leading num_envs dimension (one step of a
+        trajectory file's `env_states`) count as one environment's, as ManiSkill reads them."""
+        state = _batched_state(state)
         episode = state.pop(EPISODE_STATE_KEY, None)
         if episode is not None and env_idx is None and self._restore_by_replay(state, episode):
             return
@@ -348,6 +353,14 @@ class RoboLabEnv(BaseEnv):
     def _flatten_raw_obs(self, obs: Any) -> Any:
         return obs if self._replaying else super()._flatten_raw_obs(obs)
 
+    def render(self) -> Any:
+        """ManiSkill's render(); a clear error when the environment has no renderer (`render_backend="none"`)."""
+        if self.render_mode is not None and not scene_renders(self.scene):
+            raise RoboLabError(f"render(): this environment was made with render_backend='none', so it has no "
+                               f"renderer for render_mode={self.render_mode!r}; make it with render_backend='cpu' "
+                               "(or 'gpu') to render, or with render_mode=None")  # fmt: skip
+        return super().render()
+
     # ------------------------------------------------------------------------------------------------ stepping
     def _step_action(self, action: Any) -> Any:
         """Map DROID's gripper value (0 open, 1 closed, > 0.5 closes) to the robot's gripper controller value."""
@@ -379,6 +392,16 @@ class RoboLabEnv(BaseEnv):
         return info["success"].float()
 
 
+def _check_renderer_use(kwargs: dict) -> None:
+    """Without a renderer (`render_backend="none"`) observations can only be states."""
+    if kwargs.get("render_backend", "gpu") not in ("none", None):
+        return
+    obs_mode = kwargs.get("obs_mode") or "state"
+    if obs_mode not in STATE_OBS_MODES:
+        raise RoboLabError(f"obs_mode={obs_mode!r} needs camera images, but render_backend='none' renders nothing: "
+                           f"use obs_mode='state' or 'state_dict', or render_backend='cpu' (or 'gpu')")  # fmt: skip
+
+
 def _action_copy(action: Any) -> Any:
     """A copy of an action as given to step(), detached from the caller's buffers."""
     if isinstance(action, torch.Tensor):
@@ -388,6 +411,17 @@ def _action_copy(action: Any) -> Any:
     if isinstance(action, dict):
         return {key: _action_copy(value) for key, value in action.items()}
     return action
+
+
+def _batched_state(state: dict) -> dict:
+    """A (nested) state dict with a leading num_envs dimension on every entry: one-dimensional entries become (1, D)."""
+    batched = {}
+    for key, value in state.items():
+        if isinstance(value, dict):
+            batched[key] = _batched_state(value)
+        else:
+            batched[key] = value[None] if len(value.shape) == 1 else value
+    return batched
 
 
 def _same_state(a: Any, b: Any) -> bool:

@@ -8,6 +8,7 @@ import numpy as np
 import sapien
 import torch
 from mani_skill.envs.sapien_env import BaseEnv
+from mani_skill.utils.building.actor_builder import ActorBuilder
 from mani_skill.utils.scene_builder import SceneBuilder
 from mani_skill.utils.structs import Actor
 from mani_skill.utils.structs.pose import Pose
@@ -20,6 +21,7 @@ from robolab_ms.catalog.appearance import (
     panorama_sphere,
     plane_mesh,
     render_material,
+    scene_renders,
     texture_from_file,
     visual_mesh_builder,
 )
@@ -55,7 +57,8 @@ def _is_default_brown(rgba) -> bool:
 
 class RoboLabSceneBuilder(SceneBuilder):
     """Builds the room (floor, panorama backdrop, lights), the table, the robot's stand and the scene's catalog
-    objects; places objects each episode."""
+    objects; places objects each episode. In a scene that cannot render (`render_backend="none"`) only their
+    collision shapes are built: no backdrop, environment map, lights, materials or textures."""
 
     shadow_map_size = SHADOW_MAP_SIZE  # px, of the key light's shadow map
 
@@ -71,15 +74,17 @@ class RoboLabSceneBuilder(SceneBuilder):
         self._jitter: JitterSampler | None = None  # made on the first episode
 
     def build(self, build_config_idxs: list[int] | None = None) -> None:
+        self.renders = scene_renders(self.scene)
         self.table = self._build_table()
         self.table_entry = table_entry(self.spec)
         self.pedestal = self._build_stand()
         self.ground = self._build_floor()
-        self.backdrop = self._build_backdrop()
-        light = self.light.environment
-        environment_map = lighting_cubemap(self.background.name, light) if light != 1.0 else lighting_cubemap(self.background.name)
-        for sub_scene in self.scene.sub_scenes:
-            sub_scene.set_environment_map(environment_map)
+        self.backdrop = self._build_backdrop() if self.renders else None
+        if self.renders:
+            light, name = self.light.environment, self.background.name
+            environment_map = lighting_cubemap(name, light) if light != 1.0 else lighting_cubemap(name)
+            for sub_scene in self.scene.sub_scenes:
+                sub_scene.set_environment_map(environment_map)
 
         for placement in self.spec.objects:
             entry = self.catalog[placement.asset]
@@ -96,6 +101,13 @@ class RoboLabSceneBuilder(SceneBuilder):
         table = visual_mesh_builder(self.scene)
         half = [length / 2, width / 2, TABLE_HEIGHT / 2]
         table.add_box_collision(half_size=half)
+        if self.renders:
+            self._add_table_visuals(table, half)
+        table.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], -TABLE_HEIGHT / 2])
+        return table.build_kinematic(name="table")
+
+    def _add_table_visuals(self, table: ActorBuilder, half: list[float]) -> None:
+        """The top in the table material, metal legs and a wooden apron under the top's long edges."""
         top = self._table_render_material()
         table.add_box_visual(pose=sapien.Pose(p=[0, 0, half[2] - TABLE_TOP_THICKNESS / 2]),
                              half_size=[half[0], half[1], TABLE_TOP_THICKNESS / 2], material=top)  # fmt: skip
@@ -110,33 +122,33 @@ class RoboLabSceneBuilder(SceneBuilder):
         for sign in (-1, 1):
             table.add_box_visual(pose=sapien.Pose(p=[0, sign * (half[1] - 0.07), half[2] - TABLE_TOP_THICKNESS - 0.04]),
                                  half_size=[half[0] - 0.08, 0.01, 0.04], material=apron)  # fmt: skip
-        table.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], -TABLE_HEIGHT / 2])
-        return table.build_kinematic(name="table")
 
     def _build_stand(self) -> Actor:
         """The robot's stand: a powder-coated steel column from the floor to the robot base, on a wider foot."""
         stand = self.scene.create_actor_builder()
         stand_half = [0.15, 0.15, TABLE_HEIGHT / 2]
         stand.add_box_collision(half_size=stand_half)
-        coat = render_material(Look("plastic", (0.16, 0.16, 0.17), 0.5, 0.3))
-        stand.add_box_visual(half_size=stand_half, material=coat)
-        plate = render_material(Look("dark_metal", (0.7, 0.7, 0.72), 0.4, 0.9))
-        stand.add_box_visual(pose=sapien.Pose(p=[0, 0, TABLE_HEIGHT / 2 - 0.005]), half_size=[0.16, 0.16, 0.006],
-                             material=plate)  # fmt: skip
-        stand.add_box_visual(pose=sapien.Pose(p=[0, 0, -TABLE_HEIGHT / 2 + 0.01]), half_size=[0.25, 0.25, 0.01],
-                             material=plate)  # fmt: skip
+        if self.renders:
+            coat = render_material(Look("plastic", (0.16, 0.16, 0.17), 0.5, 0.3))
+            stand.add_box_visual(half_size=stand_half, material=coat)
+            plate = render_material(Look("dark_metal", (0.7, 0.7, 0.72), 0.4, 0.9))
+            stand.add_box_visual(pose=sapien.Pose(p=[0, 0, TABLE_HEIGHT / 2 - 0.005]), half_size=[0.16, 0.16, 0.006],
+                                 material=plate)  # fmt: skip
+            stand.add_box_visual(pose=sapien.Pose(p=[0, 0, -TABLE_HEIGHT / 2 + 0.01]), half_size=[0.25, 0.25, 0.01],
+                                 material=plate)  # fmt: skip
         stand.initial_pose = sapien.Pose(p=[-0.08, 0, -TABLE_HEIGHT / 2 - 0.001])
         return stand.build_kinematic(name="robot_pedestal")
 
     def _build_floor(self) -> Actor:
         """The room's floor: a collision plane at z = -TABLE_HEIGHT with the background's floor texture."""
-        floor_look = load_looks().floor(self.background.floor)
-        material = sapien.render.RenderMaterial(base_color=[1.0, 1.0, 1.0, 1.0], roughness=floor_look.roughness)
-        material.base_color_texture = texture_from_file(str(floor_look.path()))
         floor = visual_mesh_builder(self.scene)
         floor.add_plane_collision(sapien.Pose(q=[0.7071068, 0, -0.7071068, 0]))
-        size = 2 * ROOM_RADIUS
-        floor.add_visual_mesh(plane_mesh(size, size, floor_look.tile), material)
+        if self.renders:
+            floor_look = load_looks().floor(self.background.floor)
+            material = sapien.render.RenderMaterial(base_color=[1.0, 1.0, 1.0, 1.0], roughness=floor_look.roughness)
+            material.base_color_texture = texture_from_file(str(floor_look.path()))
+            size = 2 * ROOM_RADIUS
+            floor.add_visual_mesh(plane_mesh(size, size, floor_look.tile), material)
         floor.initial_pose = sapien.Pose(p=[TABLE_CENTER_XY[0], 0, -TABLE_HEIGHT])
         return floor.build_static(name="floor")
 
@@ -152,7 +164,10 @@ class RoboLabSceneBuilder(SceneBuilder):
 
     def build_lighting(self, shadows: bool = True, shadow_map_size: int | None = None) -> None:
         """The room's light: a shadow-casting key light from above the table, the environment map and a little
-        ambient light. Called by the environment in place of ManiSkill's default lighting."""
+        ambient light. Called by the environment in place of ManiSkill's default lighting; nothing without a
+        render system."""
+        if not scene_renders(self.scene):
+            return
         shadow_map_size = shadow_map_size or self.shadow_map_size
         self.scene.set_ambient_light(list(self.light.ambient))
         self.scene.add_directional_light(

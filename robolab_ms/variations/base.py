@@ -211,10 +211,10 @@ class Axis:
         """Before the scene is built (room, lights, table)."""
 
     def after_build(self, builder: Any, fields: dict[str, FieldValue], context: Context) -> None:
-        """After the scene's actors are built (their looks)."""
+        """After the scene's actors are built (their looks); only in a scene that renders."""
 
     def camera_configs(self, configs: list, fields: dict[str, FieldValue]) -> list:
-        """The policy cameras' configurations."""
+        """The policy cameras' configurations (asked only when the scene renders)."""
         return configs
 
     def initialize(self, env: Any, env_idx: Any, ranges: dict[str, Range], fields: dict[str, FieldValue]) -> None:

@@ -172,6 +172,12 @@ class EpisodeVariation:
             axis.configure_builder(builder, self.fields)
 
     def after_build(self, builder: Any) -> None:
+        """The built actors' looks; nothing in a scene that cannot render (the fields are drawn and recorded all
+        the same)."""
+        from robolab_ms.catalog.appearance import scene_renders
+
+        if not scene_renders(builder.scene):
+            return
         for axis in self._axes():
             axis.after_build(builder, self.fields, self.context)
 
