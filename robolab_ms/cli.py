@@ -232,7 +232,8 @@ def _policy_options(args: argparse.Namespace) -> PolicyOptions:
                          replay_from=Path(args.replay_from) if args.replay_from else None,
                          replay_policy=args.replay_policy, action_horizon=getattr(args, "action_horizon", 10),
                          gr00t_version=getattr(args, "gr00t_version", "n1.6"),
-                         results_name=_results_name(getattr(args, "policy_name", None)))  # fmt: skip
+                         results_name=_results_name(getattr(args, "policy_name", None)),
+                         realtime=getattr(args, "realtime", False))  # fmt: skip
 
 
 def _results_name(name: str | None) -> str | None:
@@ -260,6 +261,10 @@ def _add_policy_options(parser: argparse.ArgumentParser, default_host: str, clie
                            help="actions of each chunk executed before the server is asked again (default: 8)")  # fmt: skip
         group.add_argument("--timeout", type=float, default=60.0, metavar="SECONDS",
                            help="longest wait for one reply; a later one errors the episode (default: 60)")  # fmt: skip
+        group.add_argument("--realtime", action="store_true",
+                           help="openpi, gr00t: the simulation does not wait for the policy; its measured latency "
+                           "passes in simulated time at 15 Hz (the arm goes on with its chunk, then holds; late "
+                           "actions are skipped). Results record latency and held steps (docs/policies.md)")  # fmt: skip
         group.add_argument("--gr00t-version", choices=("n1.6", "n1.5"), default="n1.6",
                            help="gr00t: the server's request format, N1.6's policy server (default) or N1.5's "
                            "inference service")  # fmt: skip
