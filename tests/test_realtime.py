@@ -1,10 +1,15 @@
 """Real-time evaluation (`robolab eval --realtime`): a policy server that answers 0.4 s late, an episode whose arm
-goes on with its chunk and holds while the server thinks, and actions that arrive late skipped as stale."""
+goes on with its chunk and holds while the server thinks, actions that arrive late skipped as stale; a fast server
+asked every open-loop horizon; in-process policies refused; `robolab serve --delay-ms`."""
 
 from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,10 +18,12 @@ from servers import fault_server, free_port
 
 from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
-from robolab_ms.policies import PolicyOptions, make_policy
+from robolab_ms.policies import HoldPolicy, PolicyOptions, make_policy
 from robolab_ms.policies.replay import actions_file
+from robolab_ms.policies.server import PolicySession
 from robolab_ms.tasks.spec import CONTROL_HZ
 
+ROBOLAB = str(Path(sys.executable).with_name("robolab"))
 DELAY = 0.4  # s: every reply; at 15 Hz at least 6 control steps
 OPEN_LOOP_HORIZON = 2  # the client asks every 2 steps, or as soon as a slower reply is in
 STEPS = 30
@@ -101,6 +108,20 @@ def test_a_fast_server_is_asked_every_open_loop_horizon_and_only_the_first_reply
 
 
 def test_realtime_is_refused_for_policies_that_run_in_process():
-    for name in ("random", "oracle"):
-        with pytest.raises(RoboLabError, match="--realtime: policy .* computes in this process"):
-            make_policy(name, PolicyOptions(realtime=True))
+    result = subprocess.run([ROBOLAB, "eval", "--policy", "random", "--realtime", "--task", "BananaInBowl"],
+                            capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "--realtime: policy 'random' computes in this process" in result.stderr
+    assert "robolab serve --policy random" in result.stderr  # the way to do it
+    with pytest.raises(RoboLabError, match="the oracle reads the simulator and cannot be served"):
+        make_policy("oracle", PolicyOptions(realtime=True))
+
+
+def test_a_served_policy_with_a_delay_answers_no_sooner():
+    session = PolicySession(HoldPolicy(), action_horizon=4, delay=0.3)
+    observation = {"joint_position": np.zeros((1, 7), np.float32), "prompt": "put the banana in the bowl"}
+    episode = {"seed": 0, "step": 0, "action_low": -np.ones(8, np.float32), "action_high": np.ones(8, np.float32)}
+    start = time.perf_counter()
+    chunk = session.answer(observation, episode)
+    assert time.perf_counter() - start >= 0.3
+    assert chunk.shape == (4, 8) and not chunk.any()  # the hold policy's answer, unchanged
