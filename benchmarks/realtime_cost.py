@@ -92,9 +92,10 @@ def main() -> None:
     errors = [f"{r.task} seed {r.seed}: {r.error}" for results in runs.values() for r in results if r.error]
     if errors:
         raise SystemExit("errored episodes:\n" + "\n".join(errors))
-    key = lambda r: (r.task, r.seed)  # noqa: E731
-    reproduced = {key(r): (r.success, r.score, r.steps) for r in runs[modes[0][0]]} == {
-        key(r): (r.success, r.score, r.steps) for r in oracle}
+    def outcomes(results: list[EpisodeResult]) -> dict[tuple, tuple]:
+        return {(r.task, r.seed): (r.success, r.score, r.steps) for r in results}
+
+    reproduced = outcomes(runs[modes[0][0]]) == outcomes(oracle)
 
     print(f"\nthe oracle's actions replayed by a slow openpi server (chunks of 10, open-loop horizon 8), "
           f"{args.episodes} seed(s) per task, episodes cut at {args.max_steps} steps; the synchronous replay "
