@@ -65,6 +65,10 @@ class EpisodeResult:
     condition: str | None = None  # the suite condition the episode ran under (`--suite`), if any
     variation: dict[str, float | int | str] = field(default_factory=dict)  # drawn parameters, flat (docs/variations.md)
     simulator: str = SIMULATOR  # what ran the episode: robolab_ms, or robolab-isaac for a RoboLab run folder's line
+    # real time (`robolab eval --realtime`, docs/policies.md): the policy's latency passed in simulated time
+    realtime: bool = False  # False: the simulation waited for every reply (older lines have no such field)
+    held_steps: int | None = None  # steps the arm held its last target, no action having arrived; None: not real time
+    inference_ms_max: float | None = None  # the longest query (with inference_ms_mean: the latency in real time)
     version: int = RESULTS_VERSION
 
     def key(self) -> tuple:

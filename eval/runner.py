@@ -102,6 +102,7 @@ def _run_all(policy: Policy, config: EvalConfig, out_dir: Path, show_progress: b
     _write_manifest(out_dir, policy, config)
     done = {r.key(): r for r in read_results(out_dir)}
     _check_same_variations(done.values(), policy, config, out_dir)
+    _check_same_timing(done.values(), policy, out_dir)
     bar = tqdm(total=len(specs) * config.episodes_at_most, desc=f"eval {policy.name}", unit="episode",
                disable=not show_progress, dynamic_ncols=True)  # fmt: skip
     env, env_task, recorder = None, None, None
@@ -199,6 +200,15 @@ class _PolicyStats:
             "env_step_ms": round(float(np.mean(self.env_ms)), 3) if self.env_ms else None,
             "steps_per_second": round(steps / wall_seconds, 3) if wall_seconds > 0 else None,
             "clipped_steps": self.clipped_steps,
+            **self.realtime_fields(policy),
+        }
+
+    def realtime_fields(self, policy: Policy) -> dict[str, Any]:
+        """The result line's real-time fields (`--realtime`, docs/policies.md)."""
+        return {
+            "realtime": policy.realtime,
+            "held_steps": policy.held_steps if policy.realtime else None,
+            "inference_ms_max": round(max(self.query_ms), 3) if self.query_ms else None,
         }
 
 
@@ -303,6 +313,14 @@ def _check_same_variations(done: Any, policy: Policy, config: EvalConfig, out_di
         given = f"'{config.variations}'" if config.variations else "none"
         raise RoboLabError(f"{out_dir} holds episodes of policy '{policy.name}' run with variations {found}, not "
                            f"{given}; give another --out for these settings")  # fmt: skip
+
+
+def _check_same_timing(done: Any, policy: Policy, out_dir: Path) -> None:
+    """A results folder holds one policy's episodes either all synchronous or all in real time (`--realtime`)."""
+    if any(r.realtime != policy.realtime for r in done if r.policy == policy.name):
+        found, given = ("synchronously", "--realtime") if policy.realtime else ("with --realtime", "synchronously")
+        raise RoboLabError(f"{out_dir} holds episodes of policy '{policy.name}' run {found}; to run it {given}, give "
+                           "another --out (or --policy-name)")  # fmt: skip
 
 
 def _write_manifest(out_dir: Path, policy: Policy, config: EvalConfig) -> None:

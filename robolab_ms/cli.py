@@ -221,7 +221,8 @@ def _policy_options(args: argparse.Namespace) -> PolicyOptions:
                          replay_from=Path(args.replay_from) if args.replay_from else None,
                          replay_policy=args.replay_policy, action_horizon=getattr(args, "action_horizon", 10),
                          gr00t_version=getattr(args, "gr00t_version", "n1.6"),
-                         results_name=_results_name(getattr(args, "policy_name", None)))  # fmt: skip
+                         results_name=_results_name(getattr(args, "policy_name", None)),
+                         realtime=getattr(args, "realtime", False))  # fmt: skip
 
 
 def _results_name(name: str | None) -> str | None:
@@ -249,6 +250,10 @@ def _add_policy_options(parser: argparse.ArgumentParser, default_host: str, clie
                            help="actions of each chunk executed before the server is asked again (default: 8)")  # fmt: skip
         group.add_argument("--timeout", type=float, default=60.0, metavar="SECONDS",
                            help="longest wait for one reply; a later one errors the episode (default: 60)")  # fmt: skip
+        group.add_argument("--realtime", action="store_true",
+                           help="openpi, gr00t: the simulation does not wait for the policy; its measured latency "
+                           "passes in simulated time at 15 Hz (the arm goes on with its chunk, then holds; late "
+                           "actions are skipped). Results record latency and held steps (docs/policies.md)")  # fmt: skip
         group.add_argument("--gr00t-version", choices=("n1.6", "n1.5"), default="n1.6",
                            help="gr00t: the server's request format, N1.6's policy server (default) or N1.5's "
                            "inference service")  # fmt: skip
@@ -266,6 +271,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
                            "module.path:factory)")  # fmt: skip
     if args.action_horizon < 1:
         raise RoboLabError(f"--action-horizon must be at least 1, got {args.action_horizon}")
+    if not args.delay_ms >= 0:
+        raise RoboLabError(f"--delay-ms must be a number of milliseconds, 0 or more, got {args.delay_ms}")
     options = _policy_options(args)
     first = make_policy(args.policy, options)  # a bad name or option fails here, before the port opens
     if first.privileged:
@@ -275,12 +282,14 @@ def _cmd_serve(args: argparse.Namespace) -> int:
 
     def ready() -> None:
         client = f"--policy {args.protocol} --port {port}"
+        delay = f", answers after {args.delay_ms:g} ms at the soonest" if args.delay_ms else ""
         print(f"robolab serve: policy '{first.name}' on {args.host}:{port} ({args.protocol} protocol, chunks of "
-              f"{args.action_horizon}); evaluate with `robolab eval {client} --task ...`; Ctrl-C stops", flush=True)  # fmt: skip
+              f"{args.action_horizon}{delay}); evaluate with `robolab eval {client} --task ...`; Ctrl-C stops",
+              flush=True)  # fmt: skip
 
     try:
         serve(lambda: make_policy(args.policy, options), args.host, port, args.protocol, args.action_horizon, ready,
-              log_requests=args.log_requests)  # fmt: skip
+              log_requests=args.log_requests, delay=args.delay_ms / 1000.0)  # fmt: skip
     except OSError as exc:
         raise RoboLabError(f"cannot listen on {args.host}:{port}: {exc.strerror or exc}; is another server "
                            "running there? Choose another --port") from None  # fmt: skip
@@ -767,6 +776,9 @@ def build_parser() -> argparse.ArgumentParser:
     serving.add_argument("--action-horizon", type=int, default=10, metavar="H",
                          help="actions per reply chunk (default: 10, as pi0)")  # fmt: skip
     serving.add_argument("--log-requests", action="store_true", help="print one line per answered request")
+    serving.add_argument("--delay-ms", type=float, default=0.0, metavar="MS",
+                         help="answer no sooner than MS after each request came in: the served policy stands in "
+                         "for a slower one (try `robolab eval --realtime` against it; default: 0)")  # fmt: skip
     _add_policy_options(serving, "0.0.0.0", client=False)
     serving.set_defaults(run=_cmd_serve)
     _add_catalog_commands(commands)

@@ -68,8 +68,8 @@ def robolab_serve(*args: str) -> ServerProcess:
     return ServerProcess([*ROBOLAB, "serve", *args], ready="robolab serve:")
 
 
-def fault_server(protocol: str, port: int, faults: dict[int, str], log: Path) -> ServerProcess:
+def fault_server(protocol: str, port: int, faults: dict[int, str], log: Path, delay: float = 0.0) -> ServerProcess:
     import json
 
     return ServerProcess([sys.executable, str(TESTS / "fault_server.py"), "--protocol", protocol, "--port", str(port),
-                          "--faults", json.dumps(faults), "--log", str(log)], ready="ready")  # fmt: skip
+                          "--faults", json.dumps(faults), "--log", str(log), "--delay", str(delay)], ready="ready")  # fmt: skip

@@ -44,6 +44,8 @@ class PolicyOptions:
         observation, replies the actions).
     results_name: the name results are filed under instead of the policy's own (e.g. `pi05` for an openpi
         server), so runs of two servers of one protocol can be compared and ranked.
+    realtime: the remote policy's measured latency passes in simulated time instead of stopping the simulation
+        (`robolab eval --realtime`; the schedule is robolab_ms.policies.remote.ChunkedPolicy's).
     """
 
     host: str = "127.0.0.1"
@@ -55,6 +57,7 @@ class PolicyOptions:
     action_horizon: int = 10
     gr00t_version: str = "n1.6"
     results_name: str | None = None
+    realtime: bool = False
 
 
 class PolicyError(RoboLabError):
@@ -93,6 +96,9 @@ class Policy:
         endpoint: where the policy runs: `in-process`, a server address (`ws://host:port`, `tcp://host:port`) or
             a `module:factory` path; recorded with every episode.
         episode: the episode being played, set by `start_episode` before `reset`.
+        realtime: whether the policy's latency passes in simulated time (`--realtime`; remote clients only).
+        held_steps: in real time, the steps of this episode at which the arm held its last target because no
+            action had arrived.
     """
 
     name: str = "policy"
@@ -102,6 +108,8 @@ class Policy:
     endpoint: str = "in-process"
     episode: EpisodeInfo | None = None
     needs_reconnect: bool = False  # set by remote policies after a fault; the runner then calls connect() again
+    realtime: bool = False
+    held_steps: int = 0
 
     def connect(self) -> None:
         """Make sure the policy can answer before any episode runs (remote policies: reach the server).
@@ -186,14 +194,15 @@ def _replay(options: PolicyOptions) -> Policy:
 def _openpi(options: PolicyOptions) -> Policy:
     from robolab_ms.policies.openpi import OpenPIPolicy
 
-    return OpenPIPolicy(options.host, options.port or 8000, options.open_loop_horizon, options.timeout)
+    return OpenPIPolicy(options.host, options.port or 8000, options.open_loop_horizon, options.timeout,
+                        options.realtime)  # fmt: skip
 
 
 def _gr00t(options: PolicyOptions) -> Policy:
     from robolab_ms.policies.gr00t import Gr00tPolicy
 
     return Gr00tPolicy(options.host, options.port or 5555, options.open_loop_horizon, options.timeout,
-                       options.gr00t_version)  # fmt: skip
+                       options.gr00t_version, options.realtime)  # fmt: skip
 
 
 POLICIES: dict[str, Callable[[PolicyOptions], Policy]] = {
@@ -217,6 +226,14 @@ def make_policy(name: str, options: PolicyOptions | None = None) -> Policy:
         raise UnknownNameError("policy", name, [*POLICIES, "module.path:factory"])
     else:
         policy = POLICIES[name](options)
+    if options.realtime and not policy.realtime:
+        policy.close()
+        raise RoboLabError(
+            f"--realtime: policy '{name}' computes in this process; --realtime passes a policy server's measured "
+            "latency in simulated time and is for the clients openpi and gr00t. To evaluate this policy in real "
+            f"time, serve it (`robolab serve --policy {name}`) and run `robolab eval --policy openpi --realtime`; "
+            "the oracle reads the simulator and cannot be served"
+        )
     if options.results_name is not None:
         policy.made_as, policy.name = name, options.results_name
     return policy

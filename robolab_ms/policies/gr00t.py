@@ -173,8 +173,8 @@ class Gr00tPolicy(ChunkedPolicy):
     needs_images = True
 
     def __init__(self, host: str = "127.0.0.1", port: int = 5555, open_loop_horizon: int = 8,
-                 timeout: float = 60.0, version: str = "n1.6") -> None:  # fmt: skip
-        super().__init__(open_loop_horizon)
+                 timeout: float = 60.0, version: str = "n1.6", realtime: bool = False) -> None:  # fmt: skip
+        super().__init__(open_loop_horizon, realtime)
         if version not in VERSIONS:
             raise PolicyUnavailableError(f"--gr00t-version must be one of {', '.join(VERSIONS)}, got {version!r}")
         self.host, self.port, self.timeout, self.version = host, port, timeout, version

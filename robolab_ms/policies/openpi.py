@@ -79,8 +79,8 @@ class OpenPIPolicy(ChunkedPolicy):
     needs_images = True
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8000, open_loop_horizon: int = 8,
-                 timeout: float = 60.0) -> None:  # fmt: skip
-        super().__init__(open_loop_horizon)
+                 timeout: float = 60.0, realtime: bool = False) -> None:  # fmt: skip
+        super().__init__(open_loop_horizon, realtime)
         self.host, self.port, self.timeout = host, port, timeout
         self.endpoint = f"ws://{host}:{port}"
         self._client: Any = None

@@ -13,7 +13,8 @@ Two protocols:
 The served policy is reset when an episode starts: a robolab_ms client sends the episode's task, variant, robot,
 seed and step with each observation (`robolab/*` keys for openpi, `robolab.*` for GR00T), so the served policy is
 seeded from the episode seed and a replay is positioned at the right step; a foreign client's episode is the
-connection's first request onwards, seed 0.
+connection's first request onwards, seed 0. A delay (`--delay-ms`) holds every answer back until that long after
+its request came in, so a fast policy stands in for a slower one (for `robolab eval --realtime`).
 """
 
 from __future__ import annotations
@@ -53,15 +54,17 @@ def episode_key(episode: dict[str, Any]) -> tuple:
 class PolicySession:
     """One client's served policy: resets it when an episode starts and answers observations with chunks."""
 
-    def __init__(self, policy: Policy, action_horizon: int) -> None:
+    def __init__(self, policy: Policy, action_horizon: int, delay: float = 0.0) -> None:
         self.policy = policy
         self.action_horizon = action_horizon
+        self.delay = delay  # s: the least time an answer takes
         self.episode_key: tuple | None = None
         self.step = 0
 
     def answer(self, observation: dict[str, Any], episode: dict[str, Any]) -> np.ndarray:
         """The chunk (action_horizon, 8) for a DROID observation dict (batched arrays) and the client's episode
         fields (task, instruction_variant, robot, seed, step, action_low, action_high; any may be missing)."""
+        start = time.perf_counter()
         key = episode_key(episode)
         step = episode.get("step")
         if self.episode_key is None or key != self.episode_key or step == 0:
@@ -71,6 +74,7 @@ class PolicySession:
         step = int(step) if step is not None else self.step
         chunk = np.asarray(self.policy.act_chunk(observation, step, self.action_horizon), dtype=np.float32)
         self.step = step + len(chunk)
+        time.sleep(max(0.0, self.delay - (time.perf_counter() - start)))
         return chunk
 
     def _start(self, observation: dict[str, Any], episode: dict[str, Any]) -> None:
@@ -120,7 +124,7 @@ def _log_request(peer: Any, episode: dict[str, Any], chunk: np.ndarray, seconds:
 
 
 async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, action_horizon: int,
-                        ready: Callable[[], None], log_requests: bool) -> None:  # fmt: skip
+                        ready: Callable[[], None], log_requests: bool, delay: float) -> None:  # fmt: skip
     import http
 
     import websockets.asyncio.server as ws_server
@@ -129,7 +133,7 @@ async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, act
 
     async def handle(connection: Any) -> None:
         policy = await asyncio.to_thread(factory)
-        session = PolicySession(policy, action_horizon)
+        session = PolicySession(policy, action_horizon, delay)
         peer = connection.remote_address
         log.info("client %s connected", peer)
         packer = msgpack_numpy.Packer()
@@ -170,7 +174,7 @@ async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, act
 
 # ---------------------------------------------------------------------------------------------------- GR00T
 def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_horizon: int,
-                 ready: Callable[[], None], log_requests: bool) -> None:  # fmt: skip
+                 ready: Callable[[], None], log_requests: bool, delay: float) -> None:  # fmt: skip
     import zmq
 
     from robolab_ms.policies.gr00t import gr00t_request_to_droid, pack, unpack
@@ -193,7 +197,7 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
                 elif endpoint == "get_action":
                     observation, episode = gr00t_request_to_droid(request.get("data") or {})
                     key = episode_key(episode)
-                    session = sessions.pop(key, None) or PolicySession(factory(), action_horizon)
+                    session = sessions.pop(key, None) or PolicySession(factory(), action_horizon, delay)
                     sessions[key] = session  # the most recent last; clients' episodes may interleave
                     while len(sessions) > MAX_GR00T_SESSIONS:
                         sessions.pop(next(iter(sessions))).policy.close()
@@ -216,14 +220,15 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
 
 
 def serve(factory: Callable[[], Policy], host: str = "0.0.0.0", port: int | None = None, protocol: str = "openpi",
-          action_horizon: int = 10, ready: Callable[[], None] | None = None, log_requests: bool = False) -> None:  # fmt: skip
+          action_horizon: int = 10, ready: Callable[[], None] | None = None, log_requests: bool = False,
+          delay: float = 0.0) -> None:  # fmt: skip
     """Serve the policies `factory` makes until interrupted. `ready` is called once the port is open;
-    `log_requests` prints one line per answered request."""
+    `log_requests` prints one line per answered request; `delay` (s) is the least time an answer takes."""
     port = port or PROTOCOLS[protocol]
     ready = ready or (lambda: None)
     if protocol == "openpi":
-        asyncio.run(_serve_openpi(factory, host, port, action_horizon, ready, log_requests))
+        asyncio.run(_serve_openpi(factory, host, port, action_horizon, ready, log_requests, delay))
     elif protocol == "gr00t":
-        _serve_gr00t(factory, host, port, action_horizon, ready, log_requests)
+        _serve_gr00t(factory, host, port, action_horizon, ready, log_requests, delay)
     else:
         raise ValueError(f"unknown protocol {protocol!r}")
