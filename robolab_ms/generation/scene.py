@@ -35,11 +35,11 @@ from robolab_ms.scene import (
     SETTLE_CLEARANCE,
     ObjectPlacement,
     SceneSpec,
-    _overlap,
     footprint,
     read_scene,
     resting_height,
 )
+from robolab_ms.scene.outlines import outlines_overlap
 
 METHODS = ("solver", "grid")
 DEFAULT_ROUNDS = 4
@@ -279,7 +279,7 @@ def placement_collisions(spec: SceneSpec, catalog: Catalog) -> int:
     count = 0
     for i in range(len(standing)):
         for j in range(i):
-            if _overlap(outlines[i], outlines[j]) > OVERLAP_TOLERANCE:
+            if outlines_overlap(outlines[i], outlines[j]) > OVERLAP_TOLERANCE:
                 count += 1
     return count
 
