@@ -24,8 +24,8 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from robolab_ms.catalog import Catalog
-from robolab_ms.generation.proposal import DIRECTIONS, ROBOT, Relation, SceneProposal
-from robolab_ms.scene import SAFE_PLACEMENT
+from robolab_ms.generation.proposal import ROBOT, Relation, SceneProposal
+from robolab_ms.scene import DIRECTIONS, SAFE_PLACEMENT
 from robolab_ms.scene.outlines import outline_points
 
 REACH = {"x": (0.20, 0.85), "y": (-0.45, 0.45)}  # m: where outlines must lie (the robot reaches all of it)

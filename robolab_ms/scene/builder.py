@@ -24,7 +24,13 @@ from robolab_ms.catalog.procedural import Part, quat_multiply, yaw_quat
 from robolab_ms.scene.backgrounds import lighting_cubemap, load_looks, panorama_texture
 from robolab_ms.scene.jitter import JitterSampler
 from robolab_ms.scene.room import LightSetup, table_material
-from robolab_ms.scene.spec import ROBOT_PEDESTAL_CENTER, ROBOT_PEDESTAL_HALF_SIZE, TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec
+from robolab_ms.scene.spec import (
+    ROBOT_PEDESTAL_CENTER,
+    ROBOT_PEDESTAL_HALF_SIZE,
+    TABLE_CENTER_XY,
+    TABLE_HEIGHT,
+    SceneSpec,
+)
 
 TABLE_TOP_THICKNESS = 0.035
 ROOM_RADIUS = 7.0  # m: half the floor's size; the panorama sphere is just outside it

@@ -26,6 +26,8 @@ from robolab_ms.scene.outlines import outline_inside, outline_points, outlines_o
 TABLE_CENTER_XY = (0.55, 0.0)
 TABLE_HEIGHT = 0.75  # table top above the floor; the floor is at z = -TABLE_HEIGHT
 SAFE_PLACEMENT = {"x": (0.25, 0.85), "y": (-0.45, 0.45)}  # where object positions may be declared
+# the relations left of, right of, in front of and behind as seen from the robot: unit (x, y) directions
+DIRECTIONS = {"left_of": (0.0, 1.0), "right_of": (0.0, -1.0), "in_front_of": (-1.0, 0.0), "behind": (1.0, 0.0)}
 TILT_AXES = ("x", "y")  # object-frame axes a scene may tip an object about (to lay it on its side)
 IDENTITY_QUAT = (1.0, 0.0, 0.0, 0.0)
 JITTER_YAW_STEP_DEG = 5.0  # the yaw range of the jitter is checked at steps this fine

@@ -1,4 +1,4 @@
-"""Kept for robolab_ms.cli until the CLI is split: the USD export and import now live in `.usd_export` and `.usd_import`."""
+"""Kept for robolab_ms.cli until the CLI is split: USD export and import live in `.usd_export` and `.usd_import`."""
 
 from robolab_ms.scene.usd_export import export_scene
 from robolab_ms.scene.usd_import import import_scene
