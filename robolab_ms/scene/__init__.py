@@ -4,6 +4,7 @@ fixed light and table rules in `.room`), backgrounds in `.backgrounds`, USD in `
 """
 
 from robolab_ms.scene.spec import (
+    DEFAULT_TABLE_COLOR,
     DEFAULT_TABLE_SIZE,
     DIRECTIONS,
     IDENTITY_QUAT,
@@ -24,7 +25,7 @@ from robolab_ms.scene.spec import (
 )
 
 __all__ = [
-    "DEFAULT_TABLE_SIZE", "DIRECTIONS", "IDENTITY_QUAT", "OVERLAP_TOLERANCE", "RESERVED_NAMES", "SAFE_PLACEMENT",
-    "SETTLE_CLEARANCE", "TABLE_CENTER_XY", "TABLE_HEIGHT", "ObjectPlacement", "SceneSpec", "footprint", "load_scene",
-    "read_scene", "resting_height", "scene_files", "scene_names",
+    "DEFAULT_TABLE_COLOR", "DEFAULT_TABLE_SIZE", "DIRECTIONS", "IDENTITY_QUAT", "OVERLAP_TOLERANCE", "RESERVED_NAMES",
+    "SAFE_PLACEMENT", "SETTLE_CLEARANCE", "TABLE_CENTER_XY", "TABLE_HEIGHT", "ObjectPlacement", "SceneSpec",
+    "footprint", "load_scene", "read_scene", "resting_height", "scene_files", "scene_names",
 ]  # fmt: skip

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from robolab_ms.catalog import COLOR_NAMES
-from robolab_ms.scene.spec import SceneSpec
+from robolab_ms.scene.spec import DEFAULT_TABLE_COLOR, SceneSpec
 
 AMBIENT_LIGHT = (0.0, 0.0, 0.0)
 KEY_LIGHT_DIRECTION = (-0.45, -0.25, -1.0)  # from above, in front of the robot and to its left
@@ -24,9 +24,9 @@ class LightSetup:
     environment: float = 1.0
 
 
-def is_default_brown(rgba) -> bool:
-    """Whether a table colour is the scene files' default, brown (to 3 decimals)."""
-    return tuple(round(c, 3) for c in rgba[:3]) == tuple(round(c, 3) for c in COLOR_NAMES["brown"])
+def is_default_color(rgba) -> bool:
+    """Whether a table colour is the scene files' default, DEFAULT_TABLE_COLOR (to 3 decimals)."""
+    return tuple(round(c, 3) for c in rgba[:3]) == tuple(round(c, 3) for c in COLOR_NAMES[DEFAULT_TABLE_COLOR])
 
 
 def table_material(spec: SceneSpec) -> str | None:
@@ -36,4 +36,4 @@ def table_material(spec: SceneSpec) -> str | None:
 
     if spec.table_material:
         return spec.table_material
-    return load_looks().default_table_material if is_default_brown(spec.table_rgba) else None
+    return load_looks().default_table_material if is_default_color(spec.table_rgba) else None

@@ -32,6 +32,7 @@ TILT_AXES = ("x", "y")  # object-frame axes a scene may tip an object about (to 
 IDENTITY_QUAT = (1.0, 0.0, 0.0, 0.0)
 JITTER_YAW_STEP_DEG = 5.0  # the yaw range of the jitter is checked at steps this fine
 DEFAULT_TABLE_SIZE = (0.9, 1.2)  # x (depth, away from the robot), y (width)
+DEFAULT_TABLE_COLOR = "brown"  # a table without color, rgba or material (robolab_ms.scene.room: it shows wood)
 ROBOT_PEDESTAL_HALF_SIZE = (0.15, 0.15, TABLE_HEIGHT / 2)  # the robot's stand: a box from the floor to the robot base
 ROBOT_PEDESTAL_CENTER = (-0.08, 0.0, -TABLE_HEIGHT / 2 - 0.001)
 # the pedestal reaches this far forward; the table starts in front of it
@@ -132,7 +133,7 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
                                   "Give either a material or a colour")  # fmt: skip
     if table.has("color") and table.has("rgba"):
         raise table.error("rgba", "is given together with color, which it would replace", "Give only one of them")
-    table_color = table.choice("color", COLOR_NAMES, "brown")
+    table_color = table.choice("color", COLOR_NAMES, DEFAULT_TABLE_COLOR)
     table_rgba = table.number_list("rgba", 4, [*COLOR_NAMES[table_color], 1.0], low=0.0, high=1.0)
     table_size = table.number_list("size", 2, list(DEFAULT_TABLE_SIZE), low=0.0, high=MAX_TABLE_SIZE[1], above=True,
                                    unit="m")  # fmt: skip

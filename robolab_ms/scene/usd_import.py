@@ -20,6 +20,7 @@ from robolab_ms.catalog import COLOR_NAMES, Catalog, load_catalog
 from robolab_ms.content import Fields, load_yaml
 from robolab_ms.errors import RoboLabError, did_you_mean
 from robolab_ms.scene.spec import (
+    DEFAULT_TABLE_COLOR,
     DEFAULT_TABLE_SIZE,
     RESERVED_NAMES,
     SETTLE_CLEARANCE,
@@ -409,7 +410,7 @@ def _scene_data(name: str, root, table_prim, table_size: tuple[float, float], bo
 
 def _table_rgba(table_prim) -> tuple[float, float, float, float]:
     if table_prim is None:
-        return (*COLOR_NAMES["brown"], 1.0)
+        return (*COLOR_NAMES[DEFAULT_TABLE_COLOR], 1.0)
     rgba = read_attribute(table_prim, "table_rgba")
     if rgba is not None:
         return tuple(float(c) for c in rgba)
@@ -418,7 +419,7 @@ def _table_rgba(table_prim) -> tuple[float, float, float, float]:
         colours = pxr.UsdGeom.Gprim(table_prim).GetDisplayColorAttr().Get()
         if colours:
             return (*(float(c) for c in colours[0]), 1.0)
-    return (*COLOR_NAMES["brown"], 1.0)
+    return (*COLOR_NAMES[DEFAULT_TABLE_COLOR], 1.0)
 
 
 
