@@ -47,7 +47,6 @@ def _store_files(out_dir: Path, files: dict[str, bytes]) -> None:
         os.replace(partial, target)
 
 
-
 def run_parallel(policy: Policy, policy_spec: PolicySpec, config: EvalConfig, out_dir: Path,
                  workers: int | None = None, ray: str | None = None,
                  show_progress: bool = True) -> list[EpisodeResult]:  # fmt: skip

@@ -42,10 +42,8 @@ def _die_with_parent(parent_pid: int) -> None:
         os._exit(1)
 
 
-
 def _exit_on_sigterm(signum: int, frame: Any) -> None:
     raise SystemExit(128 + signum)
-
 
 
 def _worker_main(conn: Any, policy: PolicySpec | None, config: EvalConfig, out_dir: str, content_roots: list[str],
@@ -78,7 +76,6 @@ def _worker_main(conn: Any, policy: PolicySpec | None, config: EvalConfig, out_d
     finally:
         if worker is not None:
             worker.close()
-
 
 
 class ProcessPool:

@@ -26,7 +26,6 @@ LOCAL_RAY = "local"  # --ray local: start a Ray instance on this machine for thi
 RAY_ACTOR_CPUS = 1  # CPUs Ray reserves for each episode actor
 
 
-
 class _RayEpisodeActor:
     """A Ray actor around an EpisodeWorker whose files go to a scratch folder and travel back with each result."""
 
@@ -65,14 +64,12 @@ class _RayEpisodeActor:
             shutil.rmtree(self.scratch, ignore_errors=True)
 
 
-
 def _loopback(address: str) -> bool:
     """Whether a --ray value means this machine only: `local`, or a cluster address on the loopback interface."""
     if address == LOCAL_RAY:
         return True
     host = address.removeprefix("ray://").rsplit(":", 1)[0].strip("[]")
     return host in ("127.0.0.1", "localhost", "::1")
-
 
 
 class RayPool:

@@ -35,7 +35,6 @@ class Job:
     seed: int
 
 
-
 @dataclass
 class _TaskState:
     """The parent's view of one task: which seeds are known, running, held back, and whether sampling stopped."""
@@ -52,7 +51,6 @@ class _TaskState:
     stopped: bool = False  # adaptive: the interval is narrow enough (or the most episodes ran)
     reported: bool = False  # the tables were written once the task was complete
     todo: deque = field(default_factory=deque)  # fixed episodes: seeds still to hand out
-
 
 
 class Schedule:
@@ -154,6 +152,7 @@ class Schedule:
         return not state.todo
 
     def report_if_complete(self, state: _TaskState) -> None:
+        """Call on_task_complete once, when all of the task's results are in."""
         if not state.reported and self.complete(state):
             state.reported = True
             self.on_task_complete(state)
@@ -163,7 +162,6 @@ class Schedule:
 
     def finished(self) -> bool:
         return all(self.complete(state) for state in self.tasks)
-
 
 
 def _drop_files(out_dir: Path, result: EpisodeResult, config: EvalConfig) -> None:

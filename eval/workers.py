@@ -32,7 +32,6 @@ class PolicySpec:
     options: PolicyOptions
 
 
-
 class EpisodeWorker:
     """Runs episodes in one process: its own policy instance and one environment, rebuilt only for another task."""
 
@@ -103,14 +102,13 @@ class EpisodeWorker:
             self.policy.close()
 
 
-
 def fatal_report(exc: BaseException) -> tuple:
     """A worker's report of an error that stops the run: ("fatal", type name, message, is a RoboLabError)."""
     return ("fatal", type(exc).__name__, str(exc), isinstance(exc, RoboLabError))
 
 
-
 def raise_fatal(message: tuple, where: str, out_dir: Path) -> None:
+    """Raise, in the parent, the error a worker reported with `fatal_report`; `where` names the worker."""
     _, kind, text, robolab_error = message
     if kind == PolicyUnavailableError.__name__:
         raise PolicyUnavailableError(text)

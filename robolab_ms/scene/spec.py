@@ -534,5 +534,3 @@ def resting_height(points: np.ndarray, tilt: Sequence[float]) -> float:
     w, x, y, z = tilt
     row_z = np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])  # third row of R
     return -float((points @ row_z).min())
-
-

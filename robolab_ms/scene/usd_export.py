@@ -75,7 +75,6 @@ class ExportReport:
                 f"{self.usd.parent / ASSETS_FOLDER}")  # fmt: skip
 
 
-
 def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> ExportReport:
     """Write scene `spec` as the USD stage `out` (.usda, .usd or .usdc) with its assets folder beside it; the
     written stage is opened and validated (RoboLabError listing what is wrong)."""
@@ -155,7 +154,6 @@ def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> 
     return report
 
 
-
 def _stage_metadata(stage, doc: str) -> None:
     """Z up, metres, kilograms: the conventions of robolab_ms and of UsdPhysics."""
     pxr = pxr_modules()
@@ -163,7 +161,6 @@ def _stage_metadata(stage, doc: str) -> None:
     pxr.UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     pxr.UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)
     stage.GetRootLayer().documentation = doc
-
 
 
 def _static_box(stage, path: str, half: tuple[float, float, float], center: tuple[float, float, float],
@@ -180,7 +177,6 @@ def _static_box(stage, path: str, half: tuple[float, float, float], center: tupl
     return cube.GetPrim()
 
 
-
 def _reload(path: Path) -> None:
     """Make a layer this process opened before see the file just written."""
     layer = pxr_modules().Sdf.Layer.Find(str(path))
@@ -188,11 +184,9 @@ def _reload(path: Path) -> None:
         layer.Reload(force=True)
 
 
-
 def asset_path(entry: CatalogObject, folder: Path) -> Path:
     """Where the USD asset of a catalog object goes: text for procedural objects, binary crate for meshes."""
     return folder / f"{entry.name}{'.usda' if entry.parts else '.usdc'}"
-
 
 
 def write_asset(entry: CatalogObject, folder: Path) -> Path:
@@ -259,7 +253,6 @@ def write_asset(entry: CatalogObject, folder: Path) -> Path:
     return path
 
 
-
 def _part_prim(stage, path: str, part: Part):
     """A procedural part as a UsdGeom primitive in its pose: a Cube scaled to the box, a Sphere, or a Capsule or
     Cylinder along its x axis (as SAPIEN's)."""
@@ -294,7 +287,6 @@ def _part_prim(stage, path: str, part: Part):
     return gprim.GetPrim()
 
 
-
 def _mesh_prim(stage, path: str, points: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None,
                uv: np.ndarray | None = None):  # fmt: skip
     """A triangle mesh (object frame) as a UsdGeom.Mesh, with vertex normals and texture coordinates when given."""
@@ -318,7 +310,6 @@ def _mesh_prim(stage, path: str, points: np.ndarray, faces: np.ndarray, normals:
     return mesh.GetPrim()
 
 
-
 @dataclass
 class _VisualMesh:
     points: np.ndarray
@@ -327,7 +318,6 @@ class _VisualMesh:
     uv: np.ndarray | None
     look: Any  # robolab_ms.catalog.appearance.Look: colour, roughness, metallic
     texture: Path | None  # the texture file written into the assets folder
-
 
 
 def _visual_meshes(entry: CatalogObject, folder: Path) -> list[_VisualMesh]:
@@ -354,7 +344,6 @@ def _visual_meshes(entry: CatalogObject, folder: Path) -> list[_VisualMesh]:
     return meshes
 
 
-
 def _texture_file(mesh_file: Path) -> Path | None:
     """The image a textured OBJ names in its material file (one map_Kd), or the sidecar PNG of the same name."""
     mtl = mesh_file.with_suffix(".mtl")
@@ -368,11 +357,9 @@ def _texture_file(mesh_file: Path) -> Path | None:
     return sidecar if sidecar.is_file() else None
 
 
-
 def _material_image(visual):
     material = getattr(visual, "material", None)
     return getattr(material, "image", None) or getattr(material, "baseColorTexture", None)
-
 
 
 def _copy_texture(entry: CatalogObject, index: int, image_file: Path | None, image, folder: Path) -> Path:
@@ -384,7 +371,6 @@ def _copy_texture(entry: CatalogObject, index: int, image_file: Path | None, ima
         target = folder / f"{entry.name}_{index}.png"
         image.save(target)
     return target
-
 
 
 def _hull_faces(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -403,7 +389,6 @@ def _hull_faces(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if np.dot(np.cross(b - a, c - a), a - centre) < 0:
             face[1], face[2] = face[2], face[1]
     return vertices, remap[faces]
-
 
 
 def _preview_material(stage, path: str, look, texture: Path | None = None, asset_dir: Path | None = None):

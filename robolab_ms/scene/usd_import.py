@@ -49,7 +49,6 @@ class ImportReport:
         return f"{self.scene_file}: scene '{self.spec.name}' with {len(self.spec.objects)} objects from {self.usd}"
 
 
-
 @dataclass
 class _Body:
     """One body of a USD layout, in the scene's frame (metres, z = 0 on the table top)."""
@@ -64,7 +63,6 @@ class _Body:
     known_support: bool = False  # rests_on / level came from robolab attributes (else inferred from the heights)
 
 
-
 def read_mapping(file: Path, catalog: Catalog) -> dict[str, str | None]:
     """A `--map` file: a YAML mapping from a USD asset path (as written in the reference, or its file name or stem)
     or a prim name or path (shell-style patterns such as `Banana*` allowed) to a catalog object's name, or to null
@@ -76,7 +74,6 @@ def read_mapping(file: Path, catalog: Catalog) -> dict[str, str | None]:
             raise fields.error(str(key), "is not text", "Write an asset path or prim name, quoted if need be")
         mapping[key] = None if value is None else fields.name_in(key, catalog.names(), "catalog object")
     return mapping
-
 
 
 def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog: Catalog | None = None
@@ -180,7 +177,6 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
     return ImportReport(usd, out, spec, notes)
 
 
-
 def _frame_conversion(stage, notes: list[str]) -> np.ndarray:
     """The 4x4 matrix (column vectors) from the stage's units and up axis to metres and z up (USD reads a stage
     without metersPerUnit as centimetres, one without upAxis as Y up)."""
@@ -196,7 +192,6 @@ def _frame_conversion(stage, notes: list[str]) -> np.ndarray:
     return convert
 
 
-
 def _asset_references(prim) -> list[str]:
     """The asset paths of the references and payloads authored on the prim itself (as written)."""
     paths = []
@@ -208,13 +203,11 @@ def _asset_references(prim) -> list[str]:
     return paths
 
 
-
 def _reference_keys(reference: str) -> list[str]:
     """The forms of an asset path a --map key may take: as written, without a leading ./, file name, stem."""
     plain = reference[2:] if reference.startswith("./") else reference
     name = plain.rsplit("/", 1)[-1]
     return list(dict.fromkeys([reference, plain, name, name.split(".", 1)[0]]))
-
 
 
 def _look_up(mapping: dict[str, str | None], keys: list[str]) -> tuple[bool, str | None]:
@@ -228,7 +221,6 @@ def _look_up(mapping: dict[str, str | None], keys: list[str]) -> tuple[bool, str
     return False, None
 
 
-
 def _catalog_name(own: str | None, references: list[str], prim_name: str, catalog: Catalog) -> str | None:
     """The catalog object of a body: its robolab:catalog, else the stem of a referenced asset file, else its prim
     name, whichever names a catalog object."""
@@ -237,14 +229,12 @@ def _catalog_name(own: str | None, references: list[str], prim_name: str, catalo
     return next((name for name in candidates if name in catalog), None)
 
 
-
 def _unknown_asset(prim, own: str | None, references: list[str], catalog: Catalog) -> str:
     """One prim whose catalog object is unknown, with the closest catalog names."""
     looked_for = own or (_reference_keys(references[0])[-1] if references else prim.GetName())
     where = f" (asset {references[0]})" if references else ""
     hint = did_you_mean(looked_for, catalog.names())
     return f"{prim.GetPath()}{where}: no catalog object '{looked_for}'. {hint}"
-
 
 
 def _world_pose(prim, convert: np.ndarray, notes: list[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -268,7 +258,6 @@ def _world_pose(prim, convert: np.ndarray, notes: list[str]) -> tuple[np.ndarray
     return world[:3, 3].copy(), rotation
 
 
-
 def _table_geometry(table_prim, convert: np.ndarray, notes: list[str]) -> tuple[float, tuple[float, float], np.ndarray]:
     """The table top's height, the table's size (x, y) and its centre (x, y) from its world bounds; without a table
     prim the scene defaults (top at z = 0)."""
@@ -288,7 +277,6 @@ def _table_geometry(table_prim, convert: np.ndarray, notes: list[str]) -> tuple[
     return float(high[2]), size, (low[:2] + high[:2]) / 2
 
 
-
 def _scene_name(prim, taken: set[str]) -> str:
     """A body's scene name: robolab:name, else its prim name made of letters, digits and underscores; unique."""
     name = read_attribute(prim, "name") or prim.GetName()
@@ -296,7 +284,6 @@ def _scene_name(prim, taken: set[str]) -> str:
     if name in RESERVED_NAMES:
         name = f"{name}_object"
     return unique_name(name, taken)
-
 
 
 def _infer_supports(pending: list[_Body], bodies: list[_Body], catalog: Catalog) -> None:
@@ -335,7 +322,6 @@ def _infer_supports(pending: list[_Body], bodies: list[_Body], catalog: Catalog)
                     best_gap, body.rests_on, body.level = gap, other.name, level
 
 
-
 def yaw_and_tilt(rotation: np.ndarray) -> tuple[float, list[tuple[str, float]]]:
     """A rotation matrix as the scene file's yaw (degrees, about the world z, applied last) and tilt (turns about
     the object's x and y axes, applied first, in order): R = Rz(yaw) Ry(b) Rx(a). A rotation about z alone has no
@@ -354,11 +340,9 @@ def yaw_and_tilt(rotation: np.ndarray) -> tuple[float, list[tuple[str, float]]]:
     return _degrees(yaw), [(axis, _degrees(angle)) for axis, angle in turns]
 
 
-
 def _degrees(angle: float) -> float:
     value = round(math.degrees(angle), ANGLE_DECIMALS) + 0.0  # + 0.0: no -0.0 in the file
     return 180.0 if value == -180.0 else value
-
 
 
 def _scene_data(name: str, root, table_prim, table_size: tuple[float, float], bodies: list[_Body], catalog: Catalog,
@@ -407,7 +391,6 @@ def _scene_data(name: str, root, table_prim, table_size: tuple[float, float], bo
     return data
 
 
-
 def _table_rgba(table_prim) -> tuple[float, float, float, float]:
     if table_prim is None:
         return (*COLOR_NAMES[DEFAULT_TABLE_COLOR], 1.0)
@@ -420,7 +403,6 @@ def _table_rgba(table_prim) -> tuple[float, float, float, float]:
         if colours:
             return (*(float(c) for c in colours[0]), 1.0)
     return (*COLOR_NAMES[DEFAULT_TABLE_COLOR], 1.0)
-
 
 
 def _write_scene_file(data: dict, out: Path, usd: Path) -> None:

@@ -20,9 +20,7 @@ ATTR = {  # custom attributes of the robolab: namespace
     "table_rgba": "robolab:tableRgba", "table_material": "robolab:tableMaterial", "class": "robolab:class",
     "license": "robolab:license",
 }  # fmt: skip
-
 ANGLE_DECIMALS = 9  # degrees in the imported scene file (1e-9 degrees is far below the round trip's 1e-6)
-
 
 
 def pxr_modules():
@@ -37,13 +35,11 @@ def pxr_modules():
     return pxr
 
 
-
 def check_suffix(path: Path, option: str) -> None:
     """RoboLabError unless `path` (given to `option`) names a USD file."""
     if path.suffix.lower() not in USD_SUFFIXES:
         raise RoboLabError(f"{option} {path}: a USD file ends in {', '.join(USD_SUFFIXES)}; give e.g. "
                            f"{path.with_suffix('.usda')}")  # fmt: skip
-
 
 
 def write_attribute(prim, key: str, value: Any, kind=None) -> None:
@@ -53,12 +49,10 @@ def write_attribute(prim, key: str, value: Any, kind=None) -> None:
     prim.CreateAttribute(ATTR[key], kind, custom=True).Set(value)
 
 
-
 def read_attribute(prim, key: str) -> Any:
     """The value of robolab:<key> on `prim`, None when not authored."""
     attribute = prim.GetAttribute(ATTR[key])
     return attribute.Get() if attribute and attribute.HasAuthoredValue() else None
-
 
 
 def unique_name(name: str, taken: set[str]) -> str:
@@ -68,7 +62,6 @@ def unique_name(name: str, taken: set[str]) -> str:
         candidate, index = f"{name}_{index}", index + 1
     taken.add(candidate)
     return candidate
-
 
 
 STAGE_VALIDATORS = (
