@@ -104,7 +104,8 @@ def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> 
     write_attribute(world.GetPrim(), "scene", spec.name)
     write_attribute(world.GetPrim(), "description", spec.description)
     write_attribute(world.GetPrim(), "jitter_xy", spec.jitter_xy, Sdf.ValueTypeNames.Double)
-    write_attribute(world.GetPrim(), "jitter_yaw", round(math.degrees(spec.jitter_yaw), ANGLE_DECIMALS), Sdf.ValueTypeNames.Double)
+    write_attribute(world.GetPrim(), "jitter_yaw", round(math.degrees(spec.jitter_yaw), ANGLE_DECIMALS),
+                    Sdf.ValueTypeNames.Double)  # fmt: skip
     if spec.background:
         write_attribute(world.GetPrim(), "background", spec.background)
 
@@ -115,7 +116,8 @@ def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> 
     write_attribute(table, "table_rgba", pxr.Gf.Vec4d(*spec.table_rgba), Sdf.ValueTypeNames.Double4)
     if spec.table_material:
         write_attribute(table, "table_material", spec.table_material)
-    pedestal = _static_box(stage, f"{WORLD}/robot_pedestal", ROBOT_PEDESTAL_HALF_SIZE, ROBOT_PEDESTAL_CENTER, (0.16, 0.16, 0.17))
+    pedestal = _static_box(stage, f"{WORLD}/robot_pedestal", ROBOT_PEDESTAL_HALF_SIZE, ROBOT_PEDESTAL_CENTER,
+                           (0.16, 0.16, 0.17))  # fmt: skip
     write_attribute(pedestal, "role", "robot_pedestal")
 
     prim_names = set(RESERVED_NAMES)

@@ -142,7 +142,8 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
         position[2] -= table_top
         body = _Body(prim.GetPath().pathString, _scene_name(prim, taken), asset, position, rotation)
         if read_attribute(prim, "name") is not None:  # a body `robolab scene export` wrote: its support is recorded
-            body.rests_on, body.level, body.known_support = read_attribute(prim, "rests_on"), read_attribute(prim, "level"), True
+            body.rests_on, body.level = read_attribute(prim, "rests_on"), read_attribute(prim, "level")
+            body.known_support = True
         mass = prim.GetAttribute("physics:mass").Get() if prim.HasAPI(UsdPhysics.MassAPI) else None
         if mass and abs(mass - catalog[asset].mass) > 0.01 * catalog[asset].mass:
             notes.append(f"{body.prim}: mass {mass:g} kg in the USD file, {catalog[asset].mass:g} kg in the catalog "
@@ -364,7 +365,9 @@ def _scene_data(name: str, root, table_prim, table_size: tuple[float, float], bo
         else:
             table["rgba"] = [round(float(c), 6) for c in rgba]
     data["table"] = table
-    jitter_xy, jitter_yaw = (read_attribute(root, "jitter_xy"), read_attribute(root, "jitter_yaw")) if root.IsValid() else (None, None)
+    jitter_xy, jitter_yaw = (None, None)
+    if root.IsValid():
+        jitter_xy, jitter_yaw = read_attribute(root, "jitter_xy"), read_attribute(root, "jitter_yaw")
     if jitter_xy is not None or jitter_yaw is not None:
         data["jitter"] = {key: round(float(value), ANGLE_DECIMALS) for key, value in
                           (("xy", jitter_xy), ("yaw_deg", jitter_yaw)) if value is not None}  # fmt: skip
