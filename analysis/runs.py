@@ -33,8 +33,8 @@ from robolab_ms.analysis.robolab_results import (ROBOLAB_RESULTS_FILE, is_robola
 from robolab_ms.analysis.tables import episode_frame
 from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, read_results
+from robolab_ms.tasks.spec import CONTROL_HZ
 
-CONTROL_HZ = 15.0
 TASK_COLUMNS = ("scene", "attributes", "axes", "difficulty", "difficulty_score", "num_subtasks", "num_objects",
                 "episode_seconds")  # fmt: skip
 DIFFICULTY_ORDER = ("simple", "moderate", "complex")

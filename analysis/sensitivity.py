@@ -54,7 +54,6 @@ if TYPE_CHECKING:  # pandas, and torch through robolab_ms.analysis.runs, load wh
 
     from robolab_ms.analysis.runs import RunSet
 
-CONTROL_HZ = 15.0  # control steps per second, for `duration`
 CAMERA_OFFSETS = ("dx", "dy", "dz", "droll", "dpitch", "dyaw")
 DERIVED_OBSERVATIONS = {"success": "1 for a success, else 0", "duration": "episode length in seconds (steps / 15 Hz)"}
 MIN_EPISODES = 20
@@ -404,6 +403,8 @@ def prepare(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
 
 def _observations(episodes: pd.DataFrame, names: Sequence[str], where: str) -> tuple[np.ndarray, list[str]]:
     import pandas as pd
+
+    from robolab_ms.tasks.spec import CONTROL_HZ
 
     chosen = _split(names) or ["success"]
     numeric = [c for c in episodes.columns

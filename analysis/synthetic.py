@@ -22,8 +22,8 @@ import numpy as np
 import pandas as pd
 
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult
+from robolab_ms.tasks.spec import CONTROL_HZ
 
-CONTROL_HZ = 15
 # name -> (low, high) for a continuous parameter, or a list of names for a categorical one
 ParamSpace = Mapping[str, "tuple[float, float] | Sequence[str]"]
 SuccessModel = Callable[[str, dict], float]  # (task, drawn parameters) -> probability of success

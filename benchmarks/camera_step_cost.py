@@ -22,11 +22,11 @@ import torch
 from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.utils.structs.types import SimConfig
 
-import robolab_ms.catalog as catalog_module
+import robolab_ms.catalog.schema as catalog_schema
 from robolab_ms.agents import robot_binding
 from robolab_ms.catalog import load_catalog
-from robolab_ms.envs import RoboLabEnv
-from robolab_ms.envs import cameras
+from robolab_ms.catalog.appearance import Look
+from robolab_ms.envs import RoboLabEnv, cameras
 from robolab_ms.envs.robolab_env import SIM_HZ
 from robolab_ms.scene.builder import RoboLabSceneBuilder
 from robolab_ms.tasks.spec import CONTROL_HZ, load_task
@@ -76,7 +76,7 @@ class OldLookEnv(BareEnv):
     def _load_scene(self, options):
         from mani_skill.utils.building.ground import build_ground
 
-        from robolab_ms.scene.builder import TABLE_HEIGHT
+        from robolab_ms.scene import TABLE_HEIGHT
 
         def flat(look, face=0):
             return sapien.render.RenderMaterial(base_color=[*look.rgb, 1.0], roughness=0.6)
@@ -84,13 +84,13 @@ class OldLookEnv(BareEnv):
         builder = RoboLabSceneBuilder(self, self.spec.scene, load_catalog())
         builder._build_floor = lambda: build_ground(self.scene, altitude=-TABLE_HEIGHT)
         builder._build_backdrop = lambda: None
-        builder._table_render_material = lambda: flat(catalog_module.appearance.Look("plastic", (0.45, 0.3, 0.15), 0.8))
-        original = catalog_module.render_material
-        catalog_module.render_material = flat  # objects: flat colours, as before
+        builder._table_render_material = lambda: flat(Look("plastic", (0.45, 0.3, 0.15), 0.8))
+        original = catalog_schema.render_material
+        catalog_schema.render_material = flat  # objects: flat colours, as before
         try:
             builder.build()
         finally:
-            catalog_module.render_material = original
+            catalog_schema.render_material = original
         for sub_scene in self.scene.sub_scenes:
             sub_scene.render_system.cubemap = None
         self.scene_builder = builder

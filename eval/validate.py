@@ -363,7 +363,7 @@ class ValidationWorker:
 
     def __init__(self, policy: None, config: EvalConfig, out_dir: Path, content_roots: list[str]) -> None:
         """`policy` is unused (validation always runs the random and the oracle policy); the rest as EpisodeWorker."""
-        from robolab_ms.eval.parallel import EpisodeWorker, PolicySpec
+        from robolab_ms.eval.workers import EpisodeWorker, PolicySpec
         from robolab_ms.policies import PolicyOptions
 
         self.config = config
@@ -374,7 +374,7 @@ class ValidationWorker:
     def run(self, job: ValidationJob) -> tuple[float, int] | tuple[EpisodeResult, EpisodeWatch | None]:
         """A rest check's (largest drift in m, seeds solved at reset), or an episode's result with the oracle's
         watch of it (None for the random policy)."""
-        from robolab_ms.eval.parallel import Job
+        from robolab_ms.eval.schedule import Job
 
         if job.check == REST:
             return check_rest(job.task, range(job.seed, job.seed + self.config.episodes), self.config.variations)
@@ -409,7 +409,7 @@ def validate_parallel(tasks: list[str], seeds: int, out_dir: Path, first_seed: i
     in task order). Returns the rows in task order."""
     from tqdm import tqdm
 
-    from robolab_ms.eval.parallel import _ProcessPool
+    from robolab_ms.eval.process_pool import ProcessPool
     from robolab_ms.eval.results import exclusive_writer, read_results
     from robolab_ms.eval.runner import _check_same_variations, _write_manifest, _write_tables
     from robolab_ms.policies import make_policy
@@ -443,10 +443,10 @@ def validate_parallel(tasks: list[str], seeds: int, out_dir: Path, first_seed: i
             progress[spec.name] = _TaskProgress(spec, len(jobs))
         bar = tqdm(total=2 * seeds * len(specs), initial=done_before, desc="validate", unit="episode",
                    disable=not show_progress, dynamic_ncols=True)  # fmt: skip
-        pool: _ProcessPool | None = None
+        pool: ProcessPool | None = None
         graceful = False
         try:
-            pool = _ProcessPool(min(workers, len(todo)), None, config, out_dir, worker_class=ValidationWorker)
+            pool = ProcessPool(min(workers, len(todo)), None, config, out_dir, worker_class=ValidationWorker)
             current: list[str | None] = [None] * pool.size
             busy: dict[int, ValidationJob] = {}
             while True:

@@ -35,34 +35,14 @@ class _RegisterAfterManiSkillEnvs:
         return spec
 
 
-_deferred = False  # ManiSkill came up while a robolab_ms module was half-imported; see register_if_deferred
-
-
 def register() -> None:
-    global _deferred
+    """Import robolab_ms.envs, which registers every RoboLab task; an error is reported, never raised into ManiSkill.
+    Nothing that robolab_ms.envs imports while it registers brings ManiSkill up itself, so this works whichever
+    module first imported ManiSkill (see robolab_ms.envs.robolab_env)."""
     try:
         import robolab_ms.envs  # noqa: F401  (registers on import)
-        _deferred = False
-    except ImportError as error:
-        if "partially initialized" in str(error):
-            # a robolab_ms module that imports ManiSkill is still running (e.g. `import robolab_ms.agents`); it calls
-            # register_if_deferred() once it has defined its names
-            _deferred = True
-        else:
-            sys.stderr.write(f"robolab_ms: could not register RoboLab environments: {error}\n")
     except Exception as error:  # never break ManiSkill because of us
         sys.stderr.write(f"robolab_ms: could not register RoboLab environments: {error}\n")
-
-
-def register_if_deferred() -> None:
-    """Called at the end of robolab_ms modules that import ManiSkill: finish a registration they interrupted (by
-    this module or by its installed copy, `_robolab_ms_hook`)."""
-    hooks = [sys.modules[name] for name in (__name__, "_robolab_ms_hook", "robolab_ms.autoregister_hook")
-             if name in sys.modules]
-    if any(getattr(hook, "_deferred", False) for hook in hooks):
-        register()
-        for hook in hooks:
-            hook._deferred = False
 
 
 def install() -> None:

@@ -406,7 +406,7 @@ def _add_generate_commands(commands) -> None:
 
 def _cmd_scene_export(args: argparse.Namespace) -> int:
     from robolab_ms.scene import load_scene, read_scene
-    from robolab_ms.scene.usd_io import export_scene
+    from robolab_ms.scene.usd_export import export_scene
 
     scene = Path(args.scene)
     spec = read_scene(scene) if scene.suffix == ".yaml" and scene.is_file() else load_scene(args.scene)
@@ -416,7 +416,7 @@ def _cmd_scene_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_scene_import(args: argparse.Namespace) -> int:
-    from robolab_ms.scene.usd_io import import_scene
+    from robolab_ms.scene.usd_import import import_scene
 
     usd = Path(args.usd)
     out = Path(args.out) if args.out else usd.with_suffix(".yaml")

@@ -16,9 +16,11 @@ import sapien
 from mani_skill.envs.sapien_env import BaseEnv
 from PIL import Image
 
-import robolab_ms.catalog as catalog_module
+import robolab_ms.catalog.schema as catalog_schema
+from robolab_ms.catalog.appearance import Look
 from robolab_ms.envs import RoboLabEnv
-from robolab_ms.scene.builder import TABLE_HEIGHT, RoboLabSceneBuilder
+from robolab_ms.scene import TABLE_HEIGHT
+from robolab_ms.scene.builder import RoboLabSceneBuilder
 
 TASKS = ["BananaInBowl", "BlocksInBin", "MouseOnKeyboard", "ReorientRedMug", "RubiksCubeBehindBowl"]
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,7 +36,7 @@ def old_look():
     from mani_skill.utils.building.ground import build_ground
 
     saved = (RoboLabSceneBuilder._build_floor, RoboLabSceneBuilder._build_backdrop,
-             RoboLabSceneBuilder._table_render_material, RoboLabEnv._load_lighting, catalog_module.render_material,
+             RoboLabSceneBuilder._table_render_material, RoboLabEnv._load_lighting, catalog_schema.render_material,
              RoboLabSceneBuilder.build)  # fmt: skip
     original_build = RoboLabSceneBuilder.build
 
@@ -46,15 +48,15 @@ def old_look():
     RoboLabSceneBuilder._build_floor = lambda self: build_ground(self.scene, altitude=-TABLE_HEIGHT)
     RoboLabSceneBuilder._build_backdrop = lambda self: None
     RoboLabSceneBuilder._table_render_material = lambda self: flat(
-        catalog_module.appearance.Look("plastic", tuple(self.spec.table_rgba[:3]), 0.8))
+        Look("plastic", tuple(self.spec.table_rgba[:3]), 0.8))
     RoboLabSceneBuilder.build = build
     RoboLabEnv._load_lighting = BaseEnv._load_lighting
-    catalog_module.render_material = flat
+    catalog_schema.render_material = flat
     try:
         yield
     finally:
         (RoboLabSceneBuilder._build_floor, RoboLabSceneBuilder._build_backdrop,
-         RoboLabSceneBuilder._table_render_material, RoboLabEnv._load_lighting, catalog_module.render_material,
+         RoboLabSceneBuilder._table_render_material, RoboLabEnv._load_lighting, catalog_schema.render_material,
          RoboLabSceneBuilder.build) = saved  # fmt: skip
 
 

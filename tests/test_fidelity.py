@@ -46,7 +46,8 @@ def test_void_measure_catches_the_old_grid_floor(monkeypatch):
     """The measurement can fail: ManiSkill's grid ground and no backdrop show up as void pixels."""
     from mani_skill.utils.building.ground import build_ground
 
-    from robolab_ms.scene.builder import TABLE_HEIGHT, RoboLabSceneBuilder
+    from robolab_ms.scene import TABLE_HEIGHT
+    from robolab_ms.scene.builder import RoboLabSceneBuilder
 
     monkeypatch.setattr(RoboLabSceneBuilder, "_build_floor", lambda self: build_ground(self.scene, altitude=-TABLE_HEIGHT))
     monkeypatch.setattr(RoboLabSceneBuilder, "_build_backdrop", lambda self: None)

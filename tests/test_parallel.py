@@ -18,7 +18,7 @@ import pytest
 from tqdm import tqdm
 
 from robolab_ms.errors import RoboLabError
-from robolab_ms.eval.parallel import Job, Schedule
+from robolab_ms.eval.schedule import Job, Schedule
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, exclusive_writer, read_results
 from robolab_ms.eval.runner import EvalConfig, adaptive_sampling_done, run_evaluation
 from robolab_ms.policies import make_policy

@@ -53,9 +53,11 @@ def test_reading_specs_imports_no_simulator():
     assert result.returncode == 0 and result.stdout.strip() == "[]" and result.stderr == "", result.stderr
 
 
-@pytest.mark.parametrize("module", ["robolab_ms.agents", "robolab_ms.scene.builder"])
+@pytest.mark.parametrize("module", ["robolab_ms.agents", "robolab_ms.agents.droid", "robolab_ms.scene.builder",
+                                    "robolab_ms.scene.scene_env"])
 def test_importing_a_module_that_brings_up_maniskill_still_registers(module):
-    # ManiSkill's environments come up half-way through these imports; registration must wait for them, not fail
+    # ManiSkill's environments come up half-way through these imports, and the hook registers right then: what it
+    # imports must not need the module still being imported
     code = f"import {module}, gymnasium as gym; print('RoboLab-BananaInBowl-v1' in gym.registry)"
     result = run_python("-c", code, env={"PYTHONWARNINGS": "ignore"})
     assert result.returncode == 0 and result.stdout.strip().splitlines()[-1] == "True", result.stdout + result.stderr

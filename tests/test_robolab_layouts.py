@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from robolab_ms.catalog import load_catalog
-from robolab_ms.catalog.procedural import quat_to_matrix
-from robolab_ms.scene import load_scene, quat_multiply, scene_files, yaw_quat
+from robolab_ms.catalog.procedural import quat_multiply, quat_to_matrix, yaw_quat
+from robolab_ms.scene import load_scene, scene_files
 
 REFERENCE = Path(__file__).parent / "fixtures" / "robolab120" / "scenes.csv"
 DOCS = Path(__file__).parent.parent / "docs" / "robolab_scenes.md"

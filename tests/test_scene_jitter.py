@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from robolab_ms.catalog import load_catalog
-from robolab_ms.scene import _inside, _overlap, load_scene, read_scene
+from robolab_ms.scene import load_scene, read_scene
 from robolab_ms.scene.jitter import JITTER_CLEARANCE, JitterSampler
+from robolab_ms.scene.outlines import outline_inside, outlines_overlap
 from robolab_ms.scene.scene_env import SceneOnlyEnv
 
 DRAWS = 200
@@ -28,12 +29,12 @@ def test_close_neighbours_never_meet_yet_still_move(tmp_path):
                "  - {name: right, asset: block_blue, xy: [0.5, -0.03]}\n")  # fmt: skip
     catalog = load_catalog()
     sampler = JitterSampler(read_scene(write_scene(tmp_path, objects, "{xy: 0.04, yaw_deg: 30}"), catalog), catalog)
-    nominal_gap = -_overlap(*sampler.footprints(np.zeros((2, 2)), np.zeros(2)))
+    nominal_gap = -outlines_overlap(*sampler.footprints(np.zeros((2, 2)), np.zeros(2)))
     assert nominal_gap > JITTER_CLEARANCE
     gaps, offsets, first_draw_meets = [], [], 0
     for seed in range(DRAWS):
         offset, turn = sampler.draw(np.random.RandomState(seed))
-        gaps.append(-_overlap(*sampler.footprints(offset, turn)))
+        gaps.append(-outlines_overlap(*sampler.footprints(offset, turn)))
         offsets.append(offset)
         plain = np.random.RandomState(seed)  # what independent draws would have done
         plain_offsets = np.zeros((2, 2))
@@ -41,7 +42,7 @@ def test_close_neighbours_never_meet_yet_still_move(tmp_path):
         for index in range(2):
             plain_offsets[index] = plain.uniform(-0.04, 0.04, size=(2,))
             plain_turns[index] = plain.uniform(-sampler.spec.jitter_yaw, sampler.spec.jitter_yaw, size=(1,))[0]
-        first_draw_meets += _overlap(*sampler.footprints(plain_offsets, plain_turns)) > -JITTER_CLEARANCE
+        first_draw_meets += outlines_overlap(*sampler.footprints(plain_offsets, plain_turns)) > -JITTER_CLEARANCE
     assert first_draw_meets > DRAWS // 10  # independent draws would push them together often
     assert min(gaps) >= JITTER_CLEARANCE - 1e-9
     assert np.std(np.array(offsets)[:, :, 0]) > 0.01  # the layout still varies
@@ -56,7 +57,7 @@ def test_an_object_in_a_container_stays_inside_its_outline(tmp_path):
     for seed in range(DRAWS):
         offset, turn = sampler.draw(np.random.RandomState(seed))
         bowl, cube = sampler.footprints(offset, turn)
-        assert _inside(cube, bowl, 0.001)
+        assert outline_inside(cube, bowl, 0.001)
         moved.append(np.linalg.norm(offset[1] - offset[0]))
     assert max(moved) > 0.005  # the cube still moves within the bowl
 
@@ -66,10 +67,10 @@ def test_a_pair_that_cannot_be_jittered_apart_ends_at_its_nominal_places(tmp_pat
                "  - {name: right, asset: block_blue, xy: [0.5, -0.0255]}\n")  # fmt: skip  1 mm apart
     catalog = load_catalog()
     sampler = JitterSampler(read_scene(write_scene(tmp_path, objects, "{xy: 0.1, yaw_deg: 90}"), catalog), catalog)
-    nominal = _overlap(*sampler.footprints(np.zeros((2, 2)), np.zeros(2)))
+    nominal = outlines_overlap(*sampler.footprints(np.zeros((2, 2)), np.zeros(2)))
     for seed in range(20):
         offset, turn = sampler.draw(np.random.RandomState(seed))
-        assert _overlap(*sampler.footprints(offset, turn)) <= max(nominal, -JITTER_CLEARANCE) + 1e-9
+        assert outlines_overlap(*sampler.footprints(offset, turn)) <= max(nominal, -JITTER_CLEARANCE) + 1e-9
 
 
 @pytest.mark.parametrize(("scene_name", "seed"), [("toys_cleanup", 4), ("workdesk_snacks", 1)])

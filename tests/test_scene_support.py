@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from robolab_ms.catalog import load_catalog
-from robolab_ms.catalog.procedural import quat_to_matrix
-from robolab_ms.scene import SETTLE_CLEARANCE, footprint, load_scene, quat_multiply, read_scene, yaw_quat
+from robolab_ms.catalog.procedural import quat_multiply, quat_to_matrix, yaw_quat
+from robolab_ms.scene import SETTLE_CLEARANCE, footprint, load_scene, read_scene
 from robolab_ms.scene.scene_env import SceneOnlyEnv
 from robolab_ms.scene.support import drop_height, overlap_depth
 
@@ -70,9 +70,9 @@ def test_the_keyboard_leans_from_the_bin_floor_over_its_rim():
     assert floor_top <= points[:, 2].min() <= floor_top + 0.006  # its lower end on the floor
     assert points[:, 2].max() > catalog[bin_.asset].dimensions[2] + 0.05  # its upper end well above the rim
     outline = footprint(catalog[bin_.asset], bin_)
-    from robolab_ms.scene import _inside
+    from robolab_ms.scene.outlines import outline_inside
 
-    assert _inside(np.array([keyboard.xy]), outline, 0.0)  # its centre over the bin: half in it
+    assert outline_inside(np.array([keyboard.xy]), outline, 0.0)  # its centre over the bin: half in it
 
 
 @pytest.mark.parametrize("scene_name", ["mug_banana_ketchup_bowl_rubiks3_bin", "workdesk_bin"])

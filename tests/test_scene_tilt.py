@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from robolab_ms.catalog.procedural import quat_multiply, yaw_quat
 from robolab_ms.errors import SpecError
-from robolab_ms.scene import IDENTITY_QUAT, quat_multiply, read_scene, resting_height, yaw_quat
+from robolab_ms.scene import IDENTITY_QUAT, read_scene, resting_height
 
 SCENE = """
 name: s

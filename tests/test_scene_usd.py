@@ -15,11 +15,13 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
 from robolab_ms.catalog import load_catalog
-from robolab_ms.catalog.procedural import quat_to_matrix
+from robolab_ms.catalog.procedural import quat_multiply, quat_to_matrix, yaw_quat
 from robolab_ms.errors import RoboLabError, SpecError
-from robolab_ms.scene import load_scene, quat_multiply, read_scene, yaw_quat
+from robolab_ms.scene import load_scene, read_scene
 from robolab_ms.scene.support import drop_height, placed_pieces
-from robolab_ms.scene.usd_io import ASSETS_FOLDER, export_scene, import_scene, validate_stage, yaw_and_tilt
+from robolab_ms.scene.usd_export import ASSETS_FOLDER, export_scene
+from robolab_ms.scene.usd_import import import_scene, yaw_and_tilt
+from robolab_ms.scene.usd_stage import validate_stage
 
 ROBOLAB = [sys.executable, "-m", "robolab_ms.cli"]
 POSE_TOLERANCE = 1e-6

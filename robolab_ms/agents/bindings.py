@@ -16,7 +16,6 @@ from dataclasses import dataclass, field
 import torch
 
 from robolab_ms.agents import droid_model
-from robolab_ms.agents.droid import DROID_HOME_ARM
 from robolab_ms.errors import UnknownNameError
 
 DEFAULT_ROBOT = "droid"
@@ -64,7 +63,7 @@ ROBOT_BINDINGS: dict[str, RobotBinding] = {
         RobotBinding(
             uid="droid",
             arm_joints=droid_model.ARM_JOINTS,
-            home_arm_qpos=DROID_HOME_ARM,
+            home_arm_qpos=droid_model.DROID_HOME_ARM,
             finger_links=droid_model.FINGER_PAD_LINKS + droid_model.FINGER_LINKS,
             gripper_joints=droid_model.DRIVEN_GRIPPER_JOINTS,
             gripper_open_qpos=0.0,
@@ -78,7 +77,7 @@ ROBOT_BINDINGS: dict[str, RobotBinding] = {
         RobotBinding(
             uid="panda",
             arm_joints=droid_model.ARM_JOINTS,
-            home_arm_qpos=DROID_HOME_ARM,
+            home_arm_qpos=droid_model.DROID_HOME_ARM,
             finger_links=("panda_leftfinger", "panda_rightfinger"),
             gripper_joints=("panda_finger_joint1", "panda_finger_joint2"),
             gripper_open_qpos=0.04,

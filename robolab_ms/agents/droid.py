@@ -25,7 +25,6 @@ from mani_skill.utils.structs.pose import Pose
 
 from robolab_ms.agents import droid_model as model
 
-DROID_HOME_ARM = (0.0, -np.pi / 5, 0.0, -4 * np.pi / 5, 0.0, 3 * np.pi / 5, 0.0)
 ARM_STIFFNESS = 400.0
 ARM_DAMPING = 80.0
 # The gripper: a stiff position drive whose torque and speed are capped, so the pads close at a Robotiq-like speed and
@@ -51,7 +50,7 @@ class DroidPandaRobotiq(BaseAgent):
         _materials=dict(gripper=dict(static_friction=PAD_FRICTION, dynamic_friction=PAD_FRICTION, restitution=0.0)),
         link={pad: dict(material="gripper", patch_radius=0.1, min_patch_radius=0.1) for pad in model.FINGER_PAD_LINKS},
     )
-    keyframes = dict(home=Keyframe(qpos=np.array([*DROID_HOME_ARM] + [0.0] * 6), pose=sapien.Pose()))
+    keyframes = dict(home=Keyframe(qpos=np.array([*model.DROID_HOME_ARM] + [0.0] * 6), pose=sapien.Pose()))
     arm_joint_names = list(model.ARM_JOINTS)
     gripper_joint_names = list(model.DRIVEN_GRIPPER_JOINTS)
 

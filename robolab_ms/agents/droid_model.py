@@ -32,6 +32,8 @@ PASSIVE_GRIPPER_JOINTS = (
 FINGER_PAD_LINKS = ("left_inner_finger_pad", "right_inner_finger_pad")
 FINGER_LINKS = ("left_inner_finger", "right_inner_finger")
 
+DROID_HOME_ARM = (0.0, -math.pi / 5, 0.0, -4 * math.pi / 5, 0.0, 3 * math.pi / 5, 0.0)  # rad, DROID's home pose
+
 # Panda limits used by DROID (FACTS section 2): position (rad), effort (Nm), velocity (rad/s), per arm joint.
 ARM_LOWER = (-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973)
 ARM_UPPER = (2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973)

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from robolab_ms.catalog import (
+from robolab_ms.catalog.meshes import repaired_surface
+from robolab_ms.catalog.schema import (
     CATALOG_VERSION,
     COLOR_NAMES,
     MAX_MASS,
@@ -30,7 +31,6 @@ from robolab_ms.catalog import (
     load_catalog,
     read_catalog,
 )
-from robolab_ms.catalog.meshes import repaired_surface
 from robolab_ms.content import CONTENT_ENV, USER_CATALOG, load_yaml, user_content_roots
 from robolab_ms.errors import RoboLabError, did_you_mean
 

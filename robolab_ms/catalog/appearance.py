@@ -20,15 +20,12 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 if TYPE_CHECKING:
     import sapien
-
-    from robolab_ms.catalog import CatalogObject
-    from robolab_ms.catalog.procedural import Part
 
 TEXTURE_SIZE = 128
 
@@ -44,6 +41,18 @@ def scene_renders(scene: Any) -> bool:
     except RuntimeError:  # SAPIEN: "no system with name [render] is added to scene"
         return False
     return True
+
+
+class LookedEntry(Protocol):
+    """What an object's look is chosen from: the fields of a catalog object (robolab_ms.catalog.schema.CatalogObject)
+    that name, class and colour it."""
+
+    name: str
+    object_class: str
+    source: dict[str, Any]
+    colors: tuple[str, ...]
+    rgba: tuple[float, float, float, float]
+    palette: tuple[tuple[float, float, float, float], ...]
 
 
 # ---------------------------------------------------------------------------------------------------- materials
@@ -69,18 +78,18 @@ SURFACES = {
 WOODEN_WORDS = ("wood", "crate", "tray", "shelf", "spice_rack", "mallet")
 
 
-def _rgb_of(entry: CatalogObject, tint: int) -> tuple[float, float, float]:
+def _rgb_of(entry: LookedEntry, tint: int) -> tuple[float, float, float]:
     colours = entry.palette or (entry.rgba,)
     return tuple(float(c) for c in colours[min(tint, len(colours) - 1)][:3])
 
 
-def _colour_name(entry: CatalogObject, tint: int) -> str:
+def _colour_name(entry: LookedEntry, tint: int) -> str:
     if not entry.colors:
         return ""
     return entry.colors[min(tint, len(entry.colors) - 1)]
 
 
-def surface_kind(entry: CatalogObject, tint: int = 0) -> str:
+def surface_kind(entry: LookedEntry, tint: int = 0) -> str:
     """Which texture kind a part of `entry` with colour index `tint` gets (the whole mesh for mesh objects: tint 0)."""
     name, cls = entry.name, entry.object_class
     generator = entry.source.get("generator", "mesh")
@@ -133,7 +142,7 @@ def surface_kind(entry: CatalogObject, tint: int = 0) -> str:
     return "plastic"
 
 
-def part_look(entry: CatalogObject, tint: int = 0) -> Look:
+def part_look(entry: LookedEntry, tint: int = 0) -> Look:
     """The look of a part (or of a whole untextured mesh) of a catalog object."""
     kind = surface_kind(entry, tint)
     roughness, metallic = SURFACES[kind]

@@ -25,9 +25,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from robolab_ms.catalog import COLLISION_METHODS, MeshTransform, collision_dir, read_catalog
 from robolab_ms.catalog.meshes import load_mesh, package_file, read_hulls, repaired_surface, write_hulls
 from robolab_ms.catalog.procedural import generate, procedural_interior
+from robolab_ms.catalog.schema import COLLISION_METHODS, MeshTransform, collision_dir, read_catalog
 from robolab_ms.content import cache_dir, load_yaml
 
 MAX_HULL_VERTICES = 64  # per convex piece; PhysX allows 255, fewer keeps the hull files small
@@ -39,7 +39,7 @@ KEY_ORDER = [
 ]  # fmt: skip
 
 HEADER = """\
-# The robolab_ms object catalog. One entry per object; the schema is in robolab_ms/catalog/__init__.py and
+# The robolab_ms object catalog. One entry per object; the schema is in robolab_ms/catalog/schema.py and
 # docs/catalog.md. Frame: z up, origin at the centre of the object's bottom, metres and kilograms.
 # Procedural objects are generated from their parameters (robolab_ms/catalog/procedural.py) with exact primitive
 # collision. Mesh objects come from installed packages; 'robolab catalog build' fills in transform.translation,

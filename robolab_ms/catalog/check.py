@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robolab_ms.catalog import Catalog, CatalogObject
+from robolab_ms.catalog.schema import Catalog, CatalogObject
 
 PHYSICS_HZ = 120
 SETTLE_STEPS = 120

@@ -97,7 +97,13 @@ def axis_angle_quat(axis: tuple[float, float, float], angle: float) -> Quat:
     return (math.cos(angle / 2), *(float(a * s) for a in axis_array))
 
 
+def yaw_quat(yaw: float) -> Quat:
+    """A turn by `yaw` (rad) about the z axis."""
+    return (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+
+
 def quat_multiply(a: Quat, b: Quat) -> Quat:
+    """The rotation b then a, as one quaternion (w, x, y, z)."""
     w1, x1, y1, z1 = a
     w2, x2, y2, z2 = b
     return (

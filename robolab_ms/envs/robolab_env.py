@@ -37,18 +37,20 @@ from mani_skill.utils import common
 from mani_skill.utils.structs.pose import Pose
 from mani_skill.utils.structs.types import SimConfig
 
-from robolab_ms.agents import DEFAULT_ROBOT, ROBOT_BINDINGS, robot_binding
+from robolab_ms.agents.bindings import DEFAULT_ROBOT, ROBOT_BINDINGS, robot_binding
 from robolab_ms.catalog import load_catalog
 from robolab_ms.catalog.appearance import scene_renders
 from robolab_ms.envs import cameras as cameras_module
 from robolab_ms.errors import RoboLabError, UnknownNameError
 from robolab_ms.render_check import NO_DEVICE_HELP
-from robolab_ms.scene.builder import RoboLabSceneBuilder
 from robolab_ms.tasks.context import EvalContext
 from robolab_ms.tasks.evaluator import TaskEvaluator
 from robolab_ms.tasks.predicates import TABLE
 from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS, load_task
 
+# The droid agent and the scene builder bring ManiSkill up when imported, and ManiSkill's start-up hook registers the
+# environments (imports this module) the moment it is up: they are imported where they are used, so that this
+# module never needs one of them while it is still being imported.
 SIM_HZ = 120
 CPU_BACKENDS = ("auto", "cpu", "physx_cpu")
 STATE_OBS_MODES = ("state", "state_dict", "none")  # observation modes that need no renderer
@@ -174,6 +176,8 @@ class RoboLabEnv(BaseEnv):
 
     # ------------------------------------------------------------------------------------------------ lifecycle
     def _load_agent(self, options: dict) -> None:
+        import robolab_ms.agents.droid  # noqa: F401  (registers the droid agent with ManiSkill; see the note above)
+
         with warnings.catch_warnings():
             # ManiSkill's passive joint controller (the Robotiq linkage) declares an empty float64 Box: a harmless cast
             warnings.filterwarnings("ignore", message=r".*Box (low|high)'s precision lowered by casting to float32")
@@ -184,6 +188,8 @@ class RoboLabEnv(BaseEnv):
         return sapien.Pose(p=[0.0, 0.0, 0.0], q=[math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
 
     def _load_scene(self, options: dict) -> None:
+        from robolab_ms.scene.builder import RoboLabSceneBuilder  # see the note above
+
         spec = self.task_spec
         self.scene_builder = RoboLabSceneBuilder(self, spec.scene, self.catalog)
         self._draw_variation()

@@ -23,7 +23,7 @@ from typing import Any
 
 from robolab_ms.catalog import Catalog
 from robolab_ms.errors import did_you_mean
-from robolab_ms.scene import SAFE_PLACEMENT
+from robolab_ms.scene import DIRECTIONS, SAFE_PLACEMENT
 
 FRAME = ("Frame: the robot stands at the origin looking along +x. x points away from the robot, y to the robot's "
          "left, z up; the table top is z = 0 and its usable part spans x 0.25..0.85 m, y -0.45..0.45 m. "
@@ -31,7 +31,6 @@ FRAME = ("Frame: the robot stands at the origin looking along +x. x points away 
          "farther from it (larger x), all as seen from the robot. A yaw turns an object about z, counter-clockwise "
          "seen from above; an object 'faces' a target when its own +x axis points at it.")  # fmt: skip
 
-DIRECTIONS = {"left_of": (0.0, 1.0), "right_of": (0.0, -1.0), "in_front_of": (-1.0, 0.0), "behind": (1.0, 0.0)}
 SUPPORTS = ("on_top_of", "inside", "stacked")
 RELATIONS = ("on_table", *DIRECTIONS, "next_to", "aligned_with", "facing", "random_yaw", *SUPPORTS, "anywhere")
 ALIGN_AXES = ("row", "column")  # row: same x (side by side seen from the robot); column: same y (one behind the other)

@@ -29,17 +29,18 @@ from robolab_ms.generation.proposal import Relation, SceneProposal, read_proposa
 from robolab_ms.generation.settle import SettleResult, settle
 from robolab_ms.generation.solver import Pose, solve_layout
 from robolab_ms.scene import (
+    DEFAULT_TABLE_COLOR,
     DEFAULT_TABLE_SIZE,
     IDENTITY_QUAT,
     OVERLAP_TOLERANCE,
     SETTLE_CLEARANCE,
     ObjectPlacement,
     SceneSpec,
-    _overlap,
     footprint,
     read_scene,
     resting_height,
 )
+from robolab_ms.scene.outlines import outlines_overlap
 
 METHODS = ("solver", "grid")
 DEFAULT_ROUNDS = 4
@@ -239,8 +240,9 @@ def scene_data(poses: list[Pose], name: str, prompt: str) -> dict:
             item["rests_on"] = pose.rests_on
         items.append(item)
     description = " ".join(prompt.split())
-    return {"name": name, "description": description, "table": {"size": list(DEFAULT_TABLE_SIZE), "color": "brown"},
-            "jitter": dict(OUTPUT_JITTER), "objects": items}  # fmt: skip
+    table = {"size": list(DEFAULT_TABLE_SIZE), "color": DEFAULT_TABLE_COLOR}
+    return {"name": name, "description": description, "table": table, "jitter": dict(OUTPUT_JITTER),
+            "objects": items}  # fmt: skip
 
 
 def write_scene(poses: list[Pose], out: Path, prompt: str, catalog: Catalog, method: str) -> SceneSpec:
@@ -279,7 +281,7 @@ def placement_collisions(spec: SceneSpec, catalog: Catalog) -> int:
     count = 0
     for i in range(len(standing)):
         for j in range(i):
-            if _overlap(outlines[i], outlines[j]) > OVERLAP_TOLERANCE:
+            if outlines_overlap(outlines[i], outlines[j]) > OVERLAP_TOLERANCE:
                 count += 1
     return count
 

@@ -15,14 +15,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from robolab_ms.catalog import Catalog
-from robolab_ms.eval.validate import MAX_DRIFT_M, STABILITY_PHYSICS_STEPS
-from robolab_ms.generation.proposal import DIRECTIONS, ROBOT, Relation
-from robolab_ms.scene import SceneSpec
+from robolab_ms.eval.validate import FELL_BELOW_M, MAX_DRIFT_M, STABILITY_PHYSICS_STEPS
+from robolab_ms.generation.proposal import ROBOT, Relation
+from robolab_ms.scene import DIRECTIONS, SceneSpec
 
 PLACE_TOLERANCE = 0.03  # m: an object asked for at (x, y) counts as there within this
 ALIGN_TOLERANCE = 0.02  # m
 FACING_TOLERANCE_DEG = 20.0
-FELL_BELOW_M = -0.05  # an object whose centre ends this far below the table top fell off the table
 
 
 @dataclass

@@ -24,8 +24,9 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from robolab_ms.catalog import Catalog
-from robolab_ms.generation.proposal import DIRECTIONS, ROBOT, Relation, SceneProposal
-from robolab_ms.scene import SAFE_PLACEMENT, _outline_points
+from robolab_ms.generation.proposal import ROBOT, Relation, SceneProposal
+from robolab_ms.scene import DIRECTIONS, SAFE_PLACEMENT
+from robolab_ms.scene.outlines import outline_points
 
 REACH = {"x": (0.20, 0.85), "y": (-0.45, 0.45)}  # m: where outlines must lie (the robot reaches all of it)
 GAP = 0.03  # m: free space the solver aims for between outlines on the table (room for the fingers)
@@ -105,7 +106,7 @@ def solve_piles(proposal: SceneProposal, catalog: Catalog, yaws: dict[str, float
         for index, name in enumerate(names):
             child = catalog[proposal.objects[name]]
             relative_yaw = yaws.get(name, 0.0)
-            points = _outline_points(child)[:, :2]
+            points = outline_points(child)[:, :2]
             child_centre = (child.bounds[0][:2] + child.bounds[1][:2]) / 2
             turned = (points - child_centre) @ rotation2(relative_yaw).T
             size = turned.max(axis=0) - turned.min(axis=0)
@@ -134,7 +135,7 @@ def solve_piles(proposal: SceneProposal, catalog: Catalog, yaws: dict[str, float
 
 def pile_outline(base: str, proposal: SceneProposal, catalog: Catalog, members: dict[str, Member]) -> np.ndarray:
     """The outline (convex, base frame) of a base object with everything resting on it."""
-    points = [_outline_points(catalog[proposal.objects[base]])[:, :2]]
+    points = [outline_points(catalog[proposal.objects[base]])[:, :2]]
 
     def add(parent: str, offset: np.ndarray, yaw: float) -> None:
         for member in members.values():
@@ -142,7 +143,7 @@ def pile_outline(base: str, proposal: SceneProposal, catalog: Catalog, members: 
                 continue
             child_offset = offset + rotation2(yaw) @ member.offset
             child_yaw = yaw + member.yaw
-            child_points = _outline_points(catalog[proposal.objects[member.name]])[:, :2]
+            child_points = outline_points(catalog[proposal.objects[member.name]])[:, :2]
             points.append(child_points @ rotation2(child_yaw).T + child_offset)
             add(member.name, child_offset, child_yaw)
 

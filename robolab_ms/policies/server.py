@@ -39,7 +39,6 @@ MAX_GR00T_SESSIONS = 32  # episodes kept apart on a GR00T server (its clients ar
 
 def _default_action_space(robot: str) -> spaces.Box:
     """DROID's action space, for clients that do not send theirs."""
-    import mani_skill.envs  # noqa: F401  (registers our environments before robolab_ms.agents is imported)
     from robolab_ms.agents.droid_model import ARM_LOWER, ARM_UPPER
 
     return spaces.Box(np.array([*ARM_LOWER, 0.0], np.float32), np.array([*ARM_UPPER, 1.0], np.float32),

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import sapien
 import torch
@@ -13,8 +11,7 @@ from mani_skill.utils.scene_builder import SceneBuilder
 from mani_skill.utils.structs import Actor
 from mani_skill.utils.structs.pose import Pose
 
-from robolab_ms import autoregister_hook as _autoregister
-from robolab_ms.catalog import COLOR_NAMES, Catalog, CatalogObject
+from robolab_ms.catalog import Catalog, CatalogObject
 from robolab_ms.catalog.appearance import (
     Look,
     cylinder_mesh,
@@ -25,34 +22,23 @@ from robolab_ms.catalog.appearance import (
     texture_from_file,
     visual_mesh_builder,
 )
-from robolab_ms.catalog.procedural import Part
+from robolab_ms.catalog.procedural import Part, quat_multiply, yaw_quat
 from robolab_ms.scene.backgrounds import lighting_cubemap, load_looks, panorama_texture
-from robolab_ms.scene import TABLE_CENTER_XY, TABLE_HEIGHT, SceneSpec, quat_multiply, yaw_quat
 from robolab_ms.scene.jitter import JitterSampler
+from robolab_ms.scene.room import LightSetup, table_material
+from robolab_ms.scene.spec import (
+    ROBOT_PEDESTAL_CENTER,
+    ROBOT_PEDESTAL_HALF_SIZE,
+    TABLE_CENTER_XY,
+    TABLE_HEIGHT,
+    SceneSpec,
+)
 
 TABLE_TOP_THICKNESS = 0.035
 ROOM_RADIUS = 7.0  # m: half the floor's size; the panorama sphere is just outside it
 PANORAMA_EYE_HEIGHT = 1.5  # m above the floor: where the panorama's camera stood
-AMBIENT_LIGHT = (0.0, 0.0, 0.0)
-KEY_LIGHT_DIRECTION = (-0.45, -0.25, -1.0)  # from above, in front of the robot and to its left
-KEY_LIGHT_COLOR = (0.56, 0.6, 0.66)  # slightly cool: with the warm room the white balance comes out near neutral
 SHADOW_HALF_SIZE = 1.0  # m: the key light's shadow covers the table and the robot
 SHADOW_MAP_SIZE = 1024
-
-
-@dataclass(frozen=True)
-class LightSetup:
-    """The room's light as built: the key light's direction (where it shines to) and colour, the ambient light and
-    the factor on the environment map's light. The defaults are the room's own; robolab_ms.variations changes them."""
-
-    key_direction: tuple[float, float, float] = KEY_LIGHT_DIRECTION
-    key_color: tuple[float, float, float] = KEY_LIGHT_COLOR
-    ambient: tuple[float, float, float] = AMBIENT_LIGHT
-    environment: float = 1.0
-
-
-def _is_default_brown(rgba) -> bool:
-    return tuple(round(c, 3) for c in rgba[:3]) == tuple(round(c, 3) for c in COLOR_NAMES["brown"])
 
 
 class RoboLabSceneBuilder(SceneBuilder):
@@ -126,7 +112,7 @@ class RoboLabSceneBuilder(SceneBuilder):
     def _build_stand(self) -> Actor:
         """The robot's stand: a powder-coated steel column from the floor to the robot base, on a wider foot."""
         stand = self.scene.create_actor_builder()
-        stand_half = [0.15, 0.15, TABLE_HEIGHT / 2]
+        stand_half = list(ROBOT_PEDESTAL_HALF_SIZE)
         stand.add_box_collision(half_size=stand_half)
         if self.renders:
             coat = render_material(Look("plastic", (0.16, 0.16, 0.17), 0.5, 0.3))
@@ -136,7 +122,7 @@ class RoboLabSceneBuilder(SceneBuilder):
                                  material=plate)  # fmt: skip
             stand.add_box_visual(pose=sapien.Pose(p=[0, 0, -TABLE_HEIGHT / 2 + 0.01]), half_size=[0.25, 0.25, 0.01],
                                  material=plate)  # fmt: skip
-        stand.initial_pose = sapien.Pose(p=[-0.08, 0, -TABLE_HEIGHT / 2 - 0.001])
+        stand.initial_pose = sapien.Pose(p=list(ROBOT_PEDESTAL_CENTER))
         return stand.build_kinematic(name="robot_pedestal")
 
     def _build_floor(self) -> Actor:
@@ -180,9 +166,7 @@ class RoboLabSceneBuilder(SceneBuilder):
         """The table top's look: the scene's table material, the default wood for a brown table, or a laminate in
         the scene's table colour."""
         looks = load_looks()
-        name = self.table_material or self.spec.table_material
-        if name is None and _is_default_brown(self.spec.table_rgba):
-            name = looks.default_table_material
+        name = self.table_material or table_material(self.spec)
         if name is None:
             return render_material(Look("painted_wood", tuple(self.spec.table_rgba[:3]), 0.5))
         material = looks.table_material(name)
@@ -230,6 +214,3 @@ def table_entry(spec: SceneSpec) -> CatalogObject:
         mass=1.0, static_friction=1.0, dynamic_friction=1.0, restitution=0.0, source={"kind": "scene"},
         license="n/a", parts=(Part("box", (length / 2, width / 2, TABLE_HEIGHT / 2), (0.0, 0.0, 0.0)),),
     )  # fmt: skip
-
-
-_autoregister.register_if_deferred()  # ManiSkill may have come up half-way through this import

@@ -17,7 +17,8 @@ from scipy.spatial import ConvexHull
 
 from robolab_ms.catalog import Catalog
 from robolab_ms.catalog.procedural import quat_to_matrix
-from robolab_ms.scene import OVERLAP_TOLERANCE, SceneSpec, _inside, _outline_points, _overlap
+from robolab_ms.scene.outlines import outline_inside, outline_points, outlines_overlap
+from robolab_ms.scene.spec import OVERLAP_TOLERANCE, SceneSpec
 
 JITTER_CLEARANCE = 0.005  # m: piles nominally further apart than this stay at least this far apart
 NARROWING_DRAWS = 20  # redraws over which the range of a pile that keeps meeting its neighbours shrinks to nothing
@@ -37,7 +38,7 @@ class JitterSampler:
         self.yaw = np.array([placement.yaw for placement in placements])
         self.outlines = []  # each object's outline seen from above, tilted as it rests, before its yaw (object frame)
         for placement in placements:
-            points = _outline_points(catalog[placement.asset]) @ quat_to_matrix(tuple(placement.tilt))[:2].T
+            points = outline_points(catalog[placement.asset]) @ quat_to_matrix(tuple(placement.tilt))[:2].T
             self.outlines.append(points[ConvexHull(points).vertices])
         self.is_container = [catalog[placement.asset].is_container for placement in placements]
         self.still = {position for position, placement in enumerate(placements) if placement.fixture}  # shelves
@@ -51,13 +52,13 @@ class JitterSampler:
                 if containment is not None:
                     self.pairs.append((containment[0], containment[1], "inside", 0.0))
                     continue
-                allowed = max(_overlap(nominal[i], nominal[j]), -JITTER_CLEARANCE)
+                allowed = max(outlines_overlap(nominal[i], nominal[j]), -JITTER_CLEARANCE)
                 self.pairs.append((i, j, "apart", allowed))
 
     def _containment(self, outlines: list[np.ndarray], i: int, j: int) -> tuple[int, int] | None:
         """(inner, outer) when one object stands inside the other's container outline at the nominal places."""
         for inner, outer in ((i, j), (j, i)):
-            if self.is_container[outer] and _inside(outlines[inner], outlines[outer], OVERLAP_TOLERANCE):
+            if self.is_container[outer] and outline_inside(outlines[inner], outlines[outer], OVERLAP_TOLERANCE):
                 return inner, outer
         return None
 
@@ -83,12 +84,12 @@ class JitterSampler:
         crowded: set[int] = set()
         for i, j, kind, allowed in self.pairs:
             if kind == "inside":
-                if not _inside(shapes[i], shapes[j], OVERLAP_TOLERANCE):
+                if not outline_inside(shapes[i], shapes[j], OVERLAP_TOLERANCE):
                     crowded.update((int(self.base_of[i]), int(self.base_of[j])))
                 continue
             if ((np.minimum(high[i], high[j]) - np.maximum(low[i], low[j])) <= allowed).any():
                 continue  # the bounding boxes alone keep them far enough apart
-            if _overlap(shapes[i], shapes[j]) > allowed + 1e-9:
+            if outlines_overlap(shapes[i], shapes[j]) > allowed + 1e-9:
                 crowded.update((int(self.base_of[i]), int(self.base_of[j])))
         return crowded
 

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import torch
 
+from robolab_ms.scene import DIRECTIONS
 
 if TYPE_CHECKING:
     from robolab_ms.tasks.context import EvalContext
@@ -235,12 +236,10 @@ def _direction(axis: tuple[float, float]):
     return test
 
 
-for _name, _axis, _meaning in [
-    ("left_of", (0.0, 1.0), "left of (+y)"),
-    ("right_of", (0.0, -1.0), "right of (-y)"),
-    ("in_front_of", (-1.0, 0.0), "in front of (closer to the robot, -x)"),
-    ("behind", (1.0, 0.0), "behind (farther from the robot, +x)"),
-]:
+_MEANINGS = {"left_of": "left of (+y)", "right_of": "right of (-y)",
+             "in_front_of": "in front of (closer to the robot, -x)", "behind": "behind (farther from the robot, +x)"}
+for _name, _axis in DIRECTIONS.items():
+    _meaning = _MEANINGS[_name]
     _function = _direction(_axis)
     _function.__doc__ = (f"The object is {_meaning} the reference, seen from the robot: the horizontal offset lies "
                          "within `cone_deg` of that direction and the heights differ by at most `max_dz` (m).")  # fmt: skip

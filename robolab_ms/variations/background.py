@@ -63,11 +63,7 @@ class TableAxis(Axis):
 
 def scene_table_material(context: Context) -> str:
     """The scene's own table material (`scene_color` for a plain coloured table)."""
-    from robolab_ms.scene.backgrounds import load_looks
-    from robolab_ms.scene.builder import _is_default_brown
+    from robolab_ms.scene.room import table_material
 
-    scene = context.task.scene
-    if scene.table_material:
-        return scene.table_material
-    return load_looks().default_table_material if _is_default_brown(scene.table_rgba) else "scene_color"
+    return table_material(context.task.scene) or "scene_color"
 

@@ -64,7 +64,7 @@ def offset_pose(pose: Any, offsets: list[float]) -> Any:
     from mani_skill.utils.structs.pose import Pose
     from transforms3d.euler import euler2quat
 
-    from robolab_ms.scene import quat_multiply
+    from robolab_ms.catalog.procedural import quat_multiply
 
     base = pose.sp if hasattr(pose, "sp") else pose
     dx, dy, dz, roll, pitch, yaw = offsets

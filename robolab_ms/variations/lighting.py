@@ -44,7 +44,7 @@ ENVIRONMENT_LEVELS = (0.1, 0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0)  # what a d
 
 def direction_vector(name: str) -> tuple[float, float, float]:
     """The direction the key light shines to (unit vector) for a named direction."""
-    from robolab_ms.scene.builder import KEY_LIGHT_DIRECTION
+    from robolab_ms.scene.room import KEY_LIGHT_DIRECTION
 
     angles = LIGHT_DIRECTIONS[name]
     if angles is None:
@@ -105,7 +105,7 @@ class LightingAxis(Axis):
         }
 
     def configure_builder(self, builder: Any, fields: dict[str, FieldValue]) -> None:
-        from robolab_ms.scene.builder import AMBIENT_LIGHT, KEY_LIGHT_COLOR, LightSetup
+        from robolab_ms.scene.room import AMBIENT_LIGHT, KEY_LIGHT_COLOR, LightSetup
 
         intensity = float(fields["light_intensity"])
         tint = LIGHT_COLORS[str(fields["light_color"])]

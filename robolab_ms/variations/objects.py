@@ -124,7 +124,8 @@ def _groups(scene: Any, catalog: Any) -> list[tuple[str, ...]]:
     """Objects that move together: each container with the objects its outline holds at the layout (container
     first), an object with the objects resting on it (scene field `rests_on`), every other object alone; in scene
     order. Fixtures (shelves) and what stands on them stay where they are."""
-    from robolab_ms.scene import OVERLAP_TOLERANCE, _inside, footprint
+    from robolab_ms.scene import OVERLAP_TOLERANCE, footprint
+    from robolab_ms.scene.outlines import outline_inside
 
     outlines = {p.name: footprint(catalog[p.asset], p) for p in scene.objects}
     still = {p.name for p in scene.objects
@@ -137,7 +138,7 @@ def _groups(scene: Any, catalog: Any) -> list[tuple[str, ...]]:
         for inner in scene.objects:
             if (inner.name != outer.name and inner.name not in held and inner.name not in still
                     and not catalog[inner.asset].is_container):  # fmt: skip
-                if _inside(outlines[inner.name], outlines[outer.name], OVERLAP_TOLERANCE):
+                if outline_inside(outlines[inner.name], outlines[outer.name], OVERLAP_TOLERANCE):
                     held[inner.name] = outer.name
     for name in list(held):  # a pile inside a container moves with the container
         while held[name] in held:
@@ -197,12 +198,12 @@ def _moved(body: _Body, pivot: tuple[float, float], dx: float, dy: float, dyaw: 
 
 def _apart(a: np.ndarray, b: np.ndarray, b_low: np.ndarray, b_high: np.ndarray) -> bool:
     """Whether convex outlines a and b are at least MARGIN apart along some separating axis."""
-    from robolab_ms.scene import _overlap
+    from robolab_ms.scene.outlines import outlines_overlap
 
     a_low, a_high = a.min(axis=0), a.max(axis=0)
     if (a_low - b_high >= MARGIN).any() or (b_low - a_high >= MARGIN).any():
         return True
-    return _overlap(a, b) <= -MARGIN
+    return outlines_overlap(a, b) <= -MARGIN
 
 
 def _apply(env: Any, bodies: dict[str, _Body]) -> None:
@@ -210,7 +211,7 @@ def _apply(env: Any, bodies: dict[str, _Body]) -> None:
     import torch
     from mani_skill.utils.structs.pose import Pose
 
-    from robolab_ms.scene import quat_multiply, yaw_quat
+    from robolab_ms.catalog.procedural import quat_multiply, yaw_quat
 
     for name, body in bodies.items():
         actor = env.objects[name]
@@ -242,7 +243,7 @@ def _solved(env: Any, conditions: Any) -> bool:
 
 def _yaw(q: list[float], tilt: tuple[float, ...]) -> float:
     """The yaw about world z of an object whose orientation is yaw_quat(yaw) * tilt."""
-    from robolab_ms.scene import quat_multiply
+    from robolab_ms.catalog.procedural import quat_multiply
 
     w, x, y, z = tilt
     turn = quat_multiply(q, [w, -x, -y, -z])  # q * tilt^-1
