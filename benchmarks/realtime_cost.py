@@ -67,7 +67,11 @@ def main() -> None:
     parser.add_argument("--delay-ms", type=float, nargs="+", default=[200.0],
                         help="the served policy's delays, one real-time run each (default: 200)")  # fmt: skip
     parser.add_argument("--max-steps", type=int, default=200, help="episodes cut here (default: 200 = 13.3 s)")
+    parser.add_argument("--quick", action="store_true",
+                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
     args = parser.parse_args()
+    if args.quick:
+        args.tasks, args.episodes, args.delay_ms, args.max_steps = args.tasks[:1], 1, [200.0], 20
 
     config = EvalConfig(tasks=tuple(args.tasks), episodes=args.episodes, max_steps=args.max_steps)
     started = time.perf_counter()
@@ -107,6 +111,11 @@ def main() -> None:
             print(row(f"{task} | {mode}", [r for r in results if r.task == task]))
     for mode, results in runs.items():
         print(row(f"all | {mode}", results))
+    print()
+    for mode, results in runs.items():
+        if results and results[0].held_steps is not None:
+            held, steps = sum(r.held_steps for r in results), sum(r.steps for r in results)
+            print(f"ratio of held steps to all steps, {mode}: {held / max(steps, 1):.2f}")
     print(f"\n{time.perf_counter() - started:.0f} s in all", file=sys.stderr)
 
 

@@ -29,6 +29,9 @@ WRITER_LOCK_FILE = ".writer.lock"  # held by the run that writes the folder (see
 # names of eval.metrics.LEGACY_METRIC_NAMES
 RESULTS_VERSION = 2
 SIMULATOR = "robolab_ms"  # the `simulator` of the episodes `robolab eval` runs
+# the fields of a result line that measure time: they differ from run to run of the very same episode
+TIMING_FIELDS = frozenset({"wall_seconds", "inference_ms_mean", "inference_ms_p95", "inference_ms_max", "env_step_ms",
+                           "steps_per_second"})
 
 
 @dataclass

@@ -19,7 +19,7 @@ from tqdm import tqdm
 
 from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.schedule import Job, Schedule
-from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, exclusive_writer, read_results
+from robolab_ms.eval.results import EPISODES_FILE, TIMING_FIELDS, EpisodeResult, exclusive_writer, read_results
 from robolab_ms.eval.runner import EvalConfig, adaptive_sampling_done, run_evaluation
 from robolab_ms.policies import make_policy
 
@@ -29,12 +29,11 @@ ROBOLAB = str(Path(sys.executable).with_name("robolab"))
 TESTS = Path(__file__).parent
 TASKS = ("BananaInBowl", "BananaOnPlate")
 EPISODES, MAX_STEPS = 5, 6
-TIMING = {"wall_seconds", "inference_ms_mean", "inference_ms_p95", "env_step_ms", "steps_per_second"}
 
 
 def comparable(result: EpisodeResult) -> dict:
     """A result without the fields that measure time."""
-    return {key: value for key, value in asdict(result).items() if key not in TIMING}
+    return {key: value for key, value in asdict(result).items() if key not in TIMING_FIELDS}
 
 
 def complete_lines(out: Path) -> list[dict]:

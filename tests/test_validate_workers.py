@@ -14,14 +14,13 @@ from pathlib import Path
 
 import pytest
 
-from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, read_results
+from robolab_ms.eval.results import EPISODES_FILE, TIMING_FIELDS, EpisodeResult, read_results
 from robolab_ms.eval.validate import REPORT_CSV, REPORT_MD, validate_task, write_report
 
 from helpers import kill_run_with_workers
 
 REPO = Path(__file__).resolve().parents[1]
 SEEDS = 2
-TIMING = {"wall_seconds", "inference_ms_mean", "inference_ms_p95", "env_step_ms", "steps_per_second"}
 TASK = """
 name: {name}
 scene: banana_bowl
@@ -38,7 +37,7 @@ TASKS = {"QuickBanana": 10, "HurriedBanana": 1}
 
 def comparable(result: EpisodeResult) -> dict:
     """A result without the fields that measure time."""
-    return {key: value for key, value in asdict(result).items() if key not in TIMING}
+    return {key: value for key, value in asdict(result).items() if key not in TIMING_FIELDS}
 
 
 def report_rows(out: Path) -> list[dict]:
