@@ -1,6 +1,7 @@
 # robolab_ms: two commands for a new machine.
 #   make demo   set up (.venv, dependencies, rendering) and run a small evaluation
-#   make test   set up and run the test suite
+#   make test   set up and run the test suite without the slow end-to-end tests (minutes)
+#   make test-slow / make test-all   only the slow tests / every test (CI runs test, then test-slow)
 #   make lerobot-env   the separate Python 3.12 environment for LeRobot policy servers (docs/policies.md)
 # Both are idempotent: a second run only re-installs robolab_ms when its sources changed.
 
@@ -12,13 +13,24 @@ PKG_STAMP := $(VENV)/.robolab-installed
 SOURCES := $(shell find robolab_ms eval analysis assets scene_builders task_specs -type f \
              -not -path '*/__pycache__/*' 2>/dev/null) pyproject.toml setup.py
 
-.PHONY: demo test setup render-check assets lerobot-env clean
+.PHONY: demo test test-slow test-all lint setup render-check assets lerobot-env clean
 
 demo: setup
 	$(BIN)/robolab eval --policy random --task BananaInBowl --episodes 2 --out results/demo
 
 test: setup
+	$(BIN)/pytest -q -m "not slow"
+
+test-slow: setup
+	$(BIN)/pytest -q -m slow
+
+test-all: setup
 	$(BIN)/pytest -q
+
+# ruff: the rule set and line length are in pyproject.toml
+lint: $(DEPS_STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
 
 setup: $(PKG_STAMP) render-check assets
 

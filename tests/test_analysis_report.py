@@ -91,6 +91,7 @@ def test_filters_keep_what_they_say_and_refuse_unknown_fields(runs):
         filter_episodes(episodes, tasks=["BananaInBowl"], where=["num_objects>=3"])
 
 
+@pytest.mark.slow
 def test_cli_prints_tables_and_writes_csv_parquet_and_plots(runs, tmp_path, capsys):
     folder, _ = runs
     out = tmp_path / "report"
@@ -115,6 +116,7 @@ def test_cli_prints_tables_and_writes_csv_parquet_and_plots(runs, tmp_path, caps
         assert width > 300 and height > 150
 
 
+@pytest.mark.slow
 def test_cli_errors_say_what_to_do(runs, tmp_path, capsys):
     folder, _ = runs
     write_synthetic_run(tmp_path / "other", "other", ["MarkerInMug"], 5, 0.5)
@@ -126,6 +128,7 @@ def test_cli_errors_say_what_to_do(runs, tmp_path, capsys):
     assert "exactly two policies" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_paired_comparison_on_files_finds_the_known_difference(tmp_path):
     tasks = list(RATES)
     write_synthetic_run(tmp_path / "a", "a", tasks, 40, {t: 0.9 for t in tasks})

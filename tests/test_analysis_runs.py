@@ -37,6 +37,7 @@ def test_same_episode_in_two_folders_counts_once(tmp_path):
     assert len(frame) == 4 and frame["success"].all() and set(frame["run"]) == {"again"}
 
 
+@pytest.mark.slow
 def test_unknown_task_is_named_and_kept(tmp_path):
     write_synthetic_run(tmp_path / "x", "p", ["NoSuchTaskAnywhere"], 3, 0.5)
     with pytest.warns(UserWarning, match="NoSuchTaskAnywhere"):

@@ -41,6 +41,7 @@ def small_light_run(tmp_path_factory, task_info):
     return load_runs([out], task_info=task_info)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0])
 def test_light_intensity_ranks_above_camera_and_colour(tmp_path, capsys, seed):
     """Success depends on light_intensity only (synthetic.light_dependent_success): the command must rank it above

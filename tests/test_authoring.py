@@ -113,6 +113,7 @@ def test_content_folders_from_the_variable_and_name_clashes(tmp_path, monkeypatc
 
 
 # ------------------------------------------------------------------------------------------------ the CLI
+@pytest.mark.slow
 def test_cli_takes_task_files_and_content_folders(tmp_path):
     root = content_root(tmp_path / "mine")
     listing = robolab("list", "--content", str(root))
@@ -206,6 +207,7 @@ def test_catalog_list_shows_graspable_width_and_colours():
 
 
 # ------------------------------------------------------------------------------------------------ a make install
+@pytest.mark.slow
 def test_an_install_made_by_make_reads_the_checkouts_content(tmp_path):
     """`make` installs with ROBOLAB_MS_LINK_CHECKOUT=1: a task added to the checkout afterwards is known at once to
     the installed `robolab` and to the start-up hook; a build without it ships no link."""

@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow  # every benchmark script as a process, about 2.5 minutes: `make test-slow`
+
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 SCRIPTS = sorted(path.name for path in BENCHMARKS.glob("*.py"))
 RATIO_LINE = re.compile(r"^.*\bratio\b.*\d.*$", re.IGNORECASE | re.MULTILINE)

@@ -121,6 +121,7 @@ def test_bad_mesh_entries_are_explained(tmp_path, change, match):
         read_catalog(file)
 
 
+@pytest.mark.slow
 def test_every_object_passes_the_physical_and_visual_check():
     """All objects: load, rest upright and still, size within 5 %, plausible density, visible, containers hold."""
     catalog = load_catalog()

@@ -246,6 +246,7 @@ success:
 """
 
 
+@pytest.mark.slow
 def test_a_scene_in_the_same_content_folder_places_the_new_object(tmp_path, capsys):
     content = tmp_path / "mine"
     mesh = write_mesh(tmp_path / "ring.obj", torus())

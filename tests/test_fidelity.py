@@ -22,6 +22,7 @@ def report():
     return fidelity_report(width=48, height=27)
 
 
+@pytest.mark.slow
 def test_every_scene_is_measured(report):
     assert not report.errors
     assert {s.scene for s in report.scenes} == set(scene_names())

@@ -37,6 +37,7 @@ def catalog():
     return load_catalog()
 
 
+@pytest.mark.slow
 def test_offline_scene_end_to_end(tmp_path, catalog):
     """The command writes a scene the loader and `robolab list` accept, that settles, with preview and transcript."""
     out = tmp_path / "content" / "scene_builders" / "mug_bowl_blocks.yaml"

@@ -45,6 +45,7 @@ def _write_task(folder: Path, name: str, instruction: str, condition: dict, scen
     return path
 
 
+@pytest.mark.slow
 def test_offline_task_end_to_end_on_a_generated_scene(tmp_path):
     """A generated scene, then a generated task on it in the same content folder: the task passes validation, is
     listed by `robolab list --content` and solved by the oracle through `robolab eval`."""

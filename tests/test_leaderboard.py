@@ -73,6 +73,7 @@ def chromium() -> str:
     return executable
 
 
+@pytest.mark.slow
 def test_site_in_headless_chromium(site, chromium):
     with HeadlessChromium(chromium) as browser:
         # any alert() the page might run is recorded instead of shown
@@ -226,6 +227,7 @@ def test_correlation_on_known_data():
     assert flat.r is None and "real success rate is the same" in flat.note
 
 
+@pytest.mark.slow
 def test_sim_to_real_section_plot_and_cli(tmp_path, capsys):
     rates = {"alpha": 0.85, "beta": 0.6, "gamma": 0.4, "delta": 0.15}
     folders = [write_synthetic_run(tmp_path / name, name, TASKS, 6, rate, seed=i)

@@ -21,6 +21,9 @@ from servers import ROBOLAB, ServerProcess
 
 from robolab_ms.agents.droid_model import ARM_LOWER, ARM_UPPER
 
+# a second Python environment (built once, about 4 minutes) and LeRobot policies served: `make test-slow`
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 SETUP = ROOT / "scripts" / "setup_lerobot_env.sh"
 READY = "lerobot_server: serving"

@@ -162,6 +162,7 @@ def run_list(*args: str) -> subprocess.CompletedProcess:
                           timeout=300)  # fmt: skip
 
 
+@pytest.mark.slow
 def test_list_summary_command_prints_both_sides():
     result = run_list("--summary", "--format", "csv")
     assert result.returncode == 0, result.stderr

@@ -59,6 +59,7 @@ def env_states(file: Path) -> dict[str, np.ndarray]:
 
 
 # ---------------------------------------------------------------------------------------------------- demo
+@pytest.mark.slow
 def test_demo_random_action_runs_a_whole_episode_with_and_without_a_renderer():
     demo = ("mani_skill.examples.demo_random_action", "-e", ENV_ID, "-s", "0")
     runs = {"renderer": start(*demo), "none": start(*demo, "--render-mode", "none", "-rb", "none")}

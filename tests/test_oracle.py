@@ -58,6 +58,7 @@ def test_oracle_holds_a_mug_too_wide_for_the_fingers_by_its_wall(tmp_path):
     assert results[0].error is None and results[0].success
 
 
+@pytest.mark.slow
 def test_oracle_says_why_when_the_object_is_out_of_reach(banana_env):
     banana_env.reset(seed=0)
     base = banana_env.unwrapped

@@ -27,6 +27,7 @@ def test_content_folders_ship_inside_the_package(wheel_names):
         assert expected in wheel_names, expected
 
 
+@pytest.mark.slow
 def test_regular_install_into_a_fresh_venv_works_like_the_checkout(tmp_path):
     """A fresh venv borrows the dependencies of this one (a .pth line) and gets robolab_ms from `pip install .`."""
     import site

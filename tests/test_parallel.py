@@ -59,6 +59,7 @@ def eval_command(out: Path, *extra: str) -> list[str]:
             str(MAX_STEPS), "--out", str(out), "--quiet", *extra]  # fmt: skip
 
 
+@pytest.mark.slow
 def test_workers_killed_by_sigkill_mid_run_resume_with_every_episode_once(tmp_path, sequential):
     out = tmp_path / "run"
     log = (tmp_path / "killed.log").open("w")
@@ -81,6 +82,7 @@ def test_workers_killed_by_sigkill_mid_run_resume_with_every_episode_once(tmp_pa
     assert "BananaOnPlate" in (out / "summary.md").read_text()
 
 
+@pytest.mark.slow
 def test_ray_actors_on_a_local_instance_stream_results_and_recordings_back(tmp_path, sequential):
     environment = {**os.environ, "RAY_AUTH_MODE": "disabled"}  # a test instance on 127.0.0.1: no tokens
     head = subprocess.Popen([sys.executable, str(TESTS / "ray_head.py"), "2"], stdin=subprocess.PIPE,

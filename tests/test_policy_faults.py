@@ -57,6 +57,7 @@ def test_bad_replies_error_their_episode_and_the_run_goes_on_then_retry_errors(t
     assert all(r.error is None for r in read_results(tmp_path))  # the last line of an episode counts
 
 
+@pytest.mark.slow
 def test_server_killed_and_restarted_mid_run(tmp_path):
     port = free_port()
     serve_args = ("--policy", "hold", "--port", str(port), "--host", "127.0.0.1", "--log-requests")

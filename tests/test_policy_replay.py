@@ -24,6 +24,7 @@ def _outcomes(results) -> dict:
     return {(r.task, r.seed): (r.success, r.score, r.progress, r.steps, r.success_step, r.error) for r in results}
 
 
+@pytest.mark.slow
 def test_oracle_actions_replayed_through_serve_and_openpi_reproduce_the_episodes(tmp_path):
     recording = replace(CONFIG, save_actions=True)  # what `robolab eval --save-actions` sets
     recorded = run_evaluation(make_policy("oracle"), recording, tmp_path / "oracle", show_progress=False)

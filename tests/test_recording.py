@@ -166,6 +166,7 @@ def test_adaptive_episodes_stop_once_the_interval_is_narrow_enough(tmp_path):
     assert main(list(command)) == 0 and len(lines(tmp_path)) == n  # a rerun has nothing to add
 
 
+@pytest.mark.slow
 def test_list_and_eval_choose_tasks_by_filters(tmp_path, capsys):
     from robolab_ms.tasks.spec import load_all_tasks, task_names
 

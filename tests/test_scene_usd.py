@@ -274,6 +274,7 @@ def test_yaw_and_tilt_give_back_the_rotation():
     assert yaw_and_tilt(lying) == (-120.0, [("y", 90.0)])
 
 
+@pytest.mark.slow
 def test_cli_round_trip_loads_lists_and_resets(tmp_path, catalog):
     """From the commands: export a scene with a shelf, move the folder, import it into a content folder; a task on
     it is listed by `robolab list` and its environment resets with the imported bodies, the fixture where the

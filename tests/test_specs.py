@@ -158,6 +158,7 @@ def test_unknown_event_threshold(tmp_path):
         read_task(path)
 
 
+@pytest.mark.slow
 def test_every_registered_task_is_not_a_success_right_after_reset():
     import gymnasium as gym
 

@@ -96,6 +96,7 @@ def assert_same_as_sequential(out: Path, sequential: Path) -> None:
                                           "never touched it)")  # fmt: skip
 
 
+@pytest.mark.slow
 def test_two_workers_give_the_rows_and_episodes_of_a_sequential_run(tmp_path, task_files, sequential):
     out = tmp_path / "parallel"
     result = run_validate(task_files, out)
@@ -107,6 +108,7 @@ def test_two_workers_give_the_rows_and_episodes_of_a_sequential_run(tmp_path, ta
     assert markdown.index("| QuickBanana |") < markdown.index("| HurriedBanana |")
 
 
+@pytest.mark.slow
 def test_a_run_killed_mid_way_resumes_without_running_finished_episodes_again(tmp_path, task_files, sequential):
     out = tmp_path / "killed"
     log = (tmp_path / "killed.log").open("w")

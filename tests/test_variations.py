@@ -344,6 +344,7 @@ def test_variations_need_one_environment():
 
 
 # ------------------------------------------------------------------------------------------------ eval, suites, results
+@pytest.mark.slow
 def test_suite_runs_one_folder_per_condition_and_lines_carry_the_parameters(tmp_path):
     out = tmp_path / "suite"
     args = [ROBOLAB, "eval", "--policy", "random", "--task", TASK, "--episodes", "2", "--max-steps", "2", "--quiet",

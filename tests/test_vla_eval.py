@@ -77,6 +77,7 @@ def random_server(tmp_path_factory):
     server.stop()
 
 
+@pytest.mark.slow
 def test_oracle_actions_replayed_through_vla_eval_end_as_under_robolab_eval(tmp_path):
     oracle = run_evaluation(make_policy("oracle"), EvalConfig(tasks=(TASK,), episodes=1, first_seed=0,
                                                               save_actions=True),
@@ -98,6 +99,7 @@ def test_oracle_actions_replayed_through_vla_eval_end_as_under_robolab_eval(tmp_
     assert set(episode["observation"]) == DROID_STATE_KEYS  # the server asked for no images
 
 
+@pytest.mark.slow
 def test_random_policy_plays_a_full_episode_through_vla_eval(tmp_path, random_server):
     local = run_evaluation(make_policy("random"), EvalConfig(tasks=(TASK,), episodes=1, first_seed=3),
                            tmp_path / "robolab", show_progress=False)[0]  # fmt: skip
@@ -107,6 +109,7 @@ def test_random_policy_plays_a_full_episode_through_vla_eval(tmp_path, random_se
     assert_same_episode(aggregate["tasks"][0]["episodes"][0], local)
 
 
+@pytest.mark.slow
 def test_live_mode_sends_droid_images_and_seeds_episodes_in_turn(tmp_path, random_server):
     start = len(served(random_server.log)) if random_server.log.exists() else 0
     aggregate = vla_eval_run(random_server, tmp_path / "vla-eval", "--param", "seed=3", "--param", "images=true",
