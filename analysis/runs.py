@@ -86,7 +86,8 @@ def load_runs(folders: Sequence[str | Path], task_info: pd.DataFrame | None = No
     labels = _run_labels(paths)
     for path, label in zip(paths, labels):
         if not path.is_dir():
-            raise RoboLabError(f"{path}: no such folder; give a folder written by `robolab eval --out DIR`")
+            what = "a file, not a folder" if path.exists() else "no such folder"
+            raise RoboLabError(f"{path}: {what}; give a folder written by `robolab eval --out DIR`")
         if not (path / EPISODES_FILE).exists():
             raise RoboLabError(f"{path}: no {EPISODES_FILE} in it; is it a results folder of `robolab eval`?")
         for result in read_results(path):

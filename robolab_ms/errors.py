@@ -25,6 +25,23 @@ class SpecError(RoboLabError):
         super().__init__(message)
 
 
+class ResultsError(RoboLabError):
+    """A results file that cannot be read (a line of `episodes.jsonl`, a recording's .json or .h5): names the file,
+    the line where there is one, the field and a fix."""
+
+    def __init__(self, file: str | Path, line: int | None, field: str, problem: str, fix: str = "") -> None:
+        self.file = str(file)
+        self.line = line
+        self.field = field
+        self.problem = problem
+        self.fix = fix
+        message = self.file + (f" line {line}" if line is not None else "") + (f", field '{field}'" if field else "")
+        message += f": {problem}"
+        if fix:
+            message += f". {fix}"
+        super().__init__(message)
+
+
 class UnknownNameError(RoboLabError):
     """A name (task, object, predicate, policy ...) that does not exist; suggests close matches."""
 
