@@ -185,22 +185,31 @@ def variation_columns(runs: RunSet) -> list[str]:
     a synthetic folder's manifest lists), with at least one recorded value."""
     listed = set()
     for manifest in _manifests(runs):
-        listed.update((manifest.get("params") or {}) if manifest.get("synthetic") else {})
+        listed.update(_mapping(manifest.get("params")) if manifest.get("synthetic") else {})
     episodes = runs.episodes
     return [column for column in episodes.columns
             if (axis_parameter(column) or column in listed) and episodes[column].notna().any()]  # fmt: skip
 
 
 def _manifests(runs: RunSet) -> list[dict]:
+    """The folders' manifests; one that cannot be read, or is no JSON object, leaves the axis defaults or the
+    observed range (as do entries of the wrong shape in one, see `_recorded_ranges`)."""
     manifests = []
     for folder in runs.folders:
         path = Path(folder) / "manifest.json"
         if path.exists():
             try:
-                manifests.append(json.loads(path.read_text(encoding="utf-8")))
-            except (OSError, json.JSONDecodeError):
-                continue  # a manifest that cannot be read leaves the axis defaults or the observed range
+                manifest = json.loads(path.read_text(encoding="utf-8"))
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+                continue
+            if isinstance(manifest, dict):
+                manifests.append(manifest)
     return manifests
+
+
+def _mapping(value: Any) -> dict:
+    """A manifest entry that should be an object, or an empty one when it is something else."""
+    return value if isinstance(value, dict) else {}
 
 
 def _recorded_ranges(runs: RunSet) -> dict[str, list[tuple[float, float, bool]]]:
@@ -210,11 +219,11 @@ def _recorded_ranges(runs: RunSet) -> dict[str, list[tuple[float, float, bool]]]
     ranges: dict[str, list[tuple[float, float, bool]]] = {}
     for manifest in _manifests(runs):
         if manifest.get("synthetic"):
-            for name, values in (manifest.get("params") or {}).items():
+            for name, values in _mapping(manifest.get("params")).items():
                 if _is_number_pair(values):
                     ranges.setdefault(name, []).append((float(values[0]), float(values[1]), False))
-        for axis, params in ((manifest.get("variations") or {}).get("ranges") or {}).items():
-            for param, values in (params or {}).items():
+        for axis, params in _mapping(_mapping(manifest.get("variations")).get("ranges")).items():
+            for param, values in _mapping(params).items():
                 if _is_number_pair(values) and axis in AXES:
                     log = any(p.name == param and p.log for p in AXES[axis].params)
                     ranges.setdefault(f"{axis}.{param}", []).append((float(values[0]), float(values[1]), log))
@@ -223,7 +232,7 @@ def _recorded_ranges(runs: RunSet) -> dict[str, list[tuple[float, float, bool]]]
 
 def _is_number_pair(values: Any) -> bool:
     return (isinstance(values, (list, tuple)) and len(values) == 2
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values))  # fmt: skip
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values))  # fmt: skip
 
 
 def _continuous_parameter(column: str, values: pd.Series, recorded: dict) -> tuple[Parameter, str | None]:
