@@ -392,8 +392,9 @@ def _flat(episodes: pd.DataFrame) -> pd.DataFrame:
     for column in flat.columns:
         if flat[column].dtype == object and flat[column].map(lambda v: isinstance(v, (dict, list))).any():
             flat[column] = flat[column].map(lambda v: None if v is None else str(v))
-        elif flat[column].dtype == object:
-            flat[column] = flat[column].map(lambda v: v if v is None or isinstance(v, str) else str(v))
+        elif flat[column].dtype == object:  # missing (None, NaN) stays missing, not the text "nan"
+            flat[column] = flat[column].map(lambda v: v if v is None or isinstance(v, str)
+                                            else None if isinstance(v, float) and math.isnan(v) else str(v))  # fmt: skip
     return flat
 
 

@@ -52,13 +52,15 @@ class RunSet:
 def task_table(tasks: Iterable[str] | None = None) -> pd.DataFrame:
     """One row per known task (index: task name) with the task columns of the module docstring. `tasks` limits
     the rows to those names; names no task file describes are left out."""
-    from robolab_ms.tasks.spec import load_all_tasks
+    from robolab_ms.tasks.spec import load_all_tasks, load_task, task_names
 
-    wanted = None if tasks is None else set(tasks)
+    if tasks is None:
+        specs = load_all_tasks()
+    else:  # only the tasks asked for: reading every task file and scene takes seconds
+        known = set(task_names())
+        specs = [load_task(name) for name in sorted(set(tasks)) if name in known]
     rows = []
-    for spec in load_all_tasks():
-        if wanted is not None and spec.name not in wanted:
-            continue
+    for spec in specs:
         rows.append({
             "task": spec.name,
             "scene": spec.scene.name,
