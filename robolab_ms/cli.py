@@ -868,10 +868,26 @@ def main(argv: list[str] | None = None) -> int:
 
         for folder in getattr(args, "content", None) or []:
             add_content_root(folder)
-        return args.run(args)
+        code = args.run(args)
+        sys.stdout.flush()  # here, so that a reader gone away (`robolab list | head`) is caught below
+        return code
     except RoboLabError as error:
         print(f"robolab: error: {error}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # the reader of stdout stopped reading: nothing more to say to it
+        _stdout_to_devnull()
+        return 1
+
+
+def _stdout_to_devnull() -> None:
+    """Point stdout at the null device, so that flushing it at exit does not fail on a closed pipe again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout without a file descriptor (captured): nothing to redirect
+        pass
 
 
 if __name__ == "__main__":
