@@ -33,7 +33,7 @@ from robolab_ms.analysis.analyze import DEFAULT_BINS
 from robolab_ms.analysis.runs import DIFFICULTY_ORDER, TASK_COLUMNS, explode_column
 from robolab_ms.analysis.tables import METRIC_COLUMNS as _METRIC_SOURCES
 from robolab_ms.analysis.tables import success_interval
-from robolab_ms.errors import RoboLabError, did_you_mean
+from robolab_ms.errors import RoboLabError, did_you_mean, make_folder
 from robolab_ms.eval.results import EpisodeResult
 from robolab_ms.tasks.events import EVENT_TYPES
 
@@ -365,7 +365,7 @@ def report_markdown(report: Report, comparison=None) -> str:
 def write_report(report: Report, out: Path, comparison=None, plots: bool = True) -> list[Path]:
     """Write every table as `<name>.csv` and `<name>.parquet` (`overall`, `by_<grouping>`, `paired_*`), the
     filtered episodes, `analysis.md` and, with `plots`, the figures under `plots/`; returns the files."""
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out, "--out")
     written = []
     tables = {("overall" if name == "overall" else f"by_{name}"): table for name, (table, _) in report.tables.items()}
     tables["episodes"] = _flat(report.episodes)

@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robolab_ms.errors import RoboLabError, did_you_mean
+from robolab_ms.errors import RoboLabError, did_you_mean, make_folder
 
 if TYPE_CHECKING:  # pandas, and torch through robolab_ms.analysis.runs, load when a command runs: `robolab --help`
     import pandas as pd  # stays fast
@@ -853,7 +853,7 @@ def write_outputs(result: SensitivityResult, out_dir: Path, pairs: int = 6) -> l
     """The ranking (CSV, Markdown), the posterior samples (CSV, normalised scale, with weights) and the plots."""
     import pandas as pd
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir, "--out")
     result.table.to_csv(out_dir / TABLE_CSV, index=False, float_format="%.6g")
     (out_dir / TABLE_MD).write_text(to_markdown(result), encoding="utf-8")
     samples = pd.DataFrame(result.samples, columns=[p.name for p in result.parameters])
@@ -905,10 +905,10 @@ def run(args: Any) -> int:
     if args.pairs < 1 or args.threads < 1:
         raise RoboLabError(f"--pairs {args.pairs}, --threads {args.threads}: give at least 1")
     runs = load_runs(args.runs)
+    out_dir = make_folder(Path(args.out) if args.out else Path(args.runs[0]) / "sensitivity", "--out")
     result = analyse(runs, args.params, args.obs, parse_at(args.at), args.epochs, args.samples, args.seed,
                      args.beta, args.reweight, args.policy, args.task, args.batch_size, args.threads,
                      args.null)  # fmt: skip
-    out_dir = Path(args.out) if args.out else Path(args.runs[0]) / "sensitivity"
     paths = write_outputs(result, out_dir, args.pairs)
     print(to_markdown(result, timing=True), end="")
     print(f"\nwrote {', '.join(str(p) for p in paths)}")

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from robolab_ms.errors import ResultsError, RoboLabError
+from robolab_ms.errors import ResultsError, RoboLabError, make_folder
 from robolab_ms.eval.results import (InvalidValue, as_count, as_events, as_flag, as_integer, as_name, as_names,
                                      as_number, as_text, optional, shown)  # fmt: skip
 
@@ -248,6 +248,8 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
     import pyarrow.parquet as pq
 
     run_dir, out_dir = Path(run_dir), Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise RoboLabError(f"{out_dir} is a file; give a new folder for the dataset")
     if out_dir.exists() and any(out_dir.iterdir()):
         raise RoboLabError(f"{out_dir} is not empty; give a new folder for the dataset")
     if frames_per_file < 1:
@@ -303,7 +305,7 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
         ("timestamp", pa.float32()), ("frame_index", pa.int64()), ("episode_index", pa.int64()),
         ("index", pa.int64()), ("task_index", pa.int64()), ("next.done", pa.bool_()), ("next.success", pa.bool_()),
     ])  # fmt: skip
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir, "OUT_DIR")
     rows: list[dict[str, Any]] = []
     numeric: dict[str, list[np.ndarray]] = {name: [] for name in features if features[name]["dtype"] != "video"}
     samples: dict[str, list[np.ndarray]] = {key: [] for key in video_keys}

@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 from tqdm import tqdm
 
-from robolab_ms.errors import RoboLabError
+from robolab_ms.errors import RoboLabError, make_folder
 from robolab_ms.eval.results import EpisodeResult, append_result, episode_key, read_results
 from robolab_ms.policies import PolicyUnavailableError
 
@@ -510,6 +510,21 @@ def _loopback(address: str) -> bool:
     return host in ("127.0.0.1", "localhost", "::1")
 
 
+def _unreachable(address: str, seconds: float = 5.0) -> str | None:
+    """Why nothing listens at a --ray HOST:PORT address (None when something does, or the address is `auto` or
+    has no port): Ray itself keeps retrying an address where no cluster runs for minutes."""
+    import socket
+
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit():
+        return None
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=seconds):
+            return None
+    except OSError as error:
+        return error.strerror or str(error) or type(error).__name__
+
+
 class _RayPool:
     """N Ray actors, each with its own policy and environment, on whatever nodes Ray places them."""
 
@@ -532,6 +547,10 @@ class _RayPool:
                 options.update(num_cpus=count or os.cpu_count(), include_dashboard=False)
             else:
                 options["address"] = address
+                problem = _unreachable(address)
+                if problem:
+                    raise RoboLabError(f"--ray {address}: no Ray cluster answers there ({problem}); start one with "
+                                       "`ray start --head` or use --ray local")  # fmt: skip
             try:
                 ray.init(**options)
             except (ConnectionError, ValueError, RuntimeError) as exc:
@@ -597,8 +616,7 @@ def run_parallel(policy: Policy, policy_spec: PolicySpec, config: EvalConfig, ou
     if workers is not None and workers < 1:
         raise RoboLabError(f"--workers must be at least 1, got {workers}")
     config = replace(config, robot=config.robot or DEFAULT_ROBOT)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = make_folder(out_dir, "--out")
     specs = [load_task(task) for task in config.tasks]  # check every task before starting any worker
     with exclusive_writer(out_dir):
         _check_same_variations(read_results(out_dir), policy, config, out_dir)

@@ -118,6 +118,10 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
     if args.episodes < 1:
         raise RoboLabError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.max_steps is not None and args.max_steps < 1:
+        raise RoboLabError(f"--max-steps must be at least 1, got {args.max_steps}")
+    if args.seed < 0:
+        raise RoboLabError(f"--seed must be 0 or more (episode seeds are --seed, --seed+1, ...), got {args.seed}")
     if args.workers is not None and args.workers < 1:
         raise RoboLabError(f"--workers must be at least 1, got {args.workers}")
     _check_adaptive(args)
@@ -634,13 +638,16 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
     if args.seeds < 1:
         raise RoboLabError(f"--seeds must be at least 1, got {args.seeds}")
+    if args.seed < 0:
+        raise RoboLabError(f"--seed must be 0 or more (the seeds are --seed, --seed+1, ...), got {args.seed}")
     if args.workers < 1:
         raise RoboLabError(f"--workers must be at least 1, got {args.workers}")
     if not args.all and not args.task:
         raise RoboLabError("name the tasks to validate with --task NAME ..., or use --all")
     tasks = task_names() if args.all else list(_task_arguments(args.task))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    from robolab_ms.errors import make_folder
+
+    out = make_folder(args.out, "--out")
     rows = []
     try:
         if args.workers > 1:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import os
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -49,6 +50,24 @@ class UnknownNameError(RoboLabError):
         known = sorted(known)
         self.kind, self.name, self.known = kind, name, known
         super().__init__(f"unknown {kind} '{name}'. {did_you_mean(name, known)}")
+
+
+def make_folder(path: str | Path, option: str = "") -> Path:
+    """Create an output folder (with its parents) and return it; a RoboLabError naming the option, the folder and
+    why, when it cannot be made (a file in the way, no permission) or is not writable."""
+    path = Path(path)
+    where = f"{option} {path}" if option else str(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        blocking = next((p for p in [path, *path.parents] if p.exists() and not p.is_dir()), path)
+        raise RoboLabError(f"{where}: cannot create this folder: {blocking} is a file; choose another folder") from None
+    except OSError as error:
+        raise RoboLabError(f"{where}: cannot create this folder ({error.strerror or error}); choose a folder you can "
+                           "write to") from None  # fmt: skip
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise RoboLabError(f"{where}: this folder is not writable; choose a folder you can write to")
+    return path
 
 
 def did_you_mean(name: str, known: Iterable[str]) -> str:
