@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 from urllib.parse import quote
 
-from robolab_ms.errors import RoboLabError, did_you_mean
+from robolab_ms.errors import RoboLabError, did_you_mean, make_folder
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -387,7 +387,8 @@ def plot_sim_to_real(comparison: SimToReal, out_dir: Path) -> list[str]:
     x_err = np.vstack([sim - 100 * table["sim_low"].to_numpy(float), 100 * table["sim_high"].to_numpy(float) - sim])
     y_err = np.vstack([real - 100 * table["real_low"].to_numpy(float),
                        100 * table["real_high"].to_numpy(float) - real])  # fmt: skip
-    y_err = np.nan_to_num(y_err, nan=0.0)
+    # a rate of 0 or 1 lies outside its equal-tailed Beta interval: no bar on that side (as in analyze's plots)
+    x_err, y_err = x_err.clip(min=0), np.nan_to_num(y_err, nan=0.0).clip(min=0)
     axes.errorbar(sim, real, xerr=x_err, yerr=y_err, fmt="o", color="#1f5fa8", ecolor="#8fb0d8", elinewidth=1.2,
                   capsize=3, label="policy (95 % intervals)")  # fmt: skip
     for name, x, y in zip(table["policy"], sim, real):
@@ -563,7 +564,7 @@ def _prepare_site(site: Path) -> Path:
     if site.is_dir() and any(site.iterdir()) and not (site / SITE_MARKER).exists():
         raise RoboLabError(f"{site}: not empty and not a leaderboard site written by `robolab leaderboard`; give a "
                            "new or empty folder to --out")  # fmt: skip
-    site.mkdir(parents=True, exist_ok=True)
+    make_folder(site, "--out")
     for name in (TASK_DIR, VIDEO_DIR):
         shutil.rmtree(site / name, ignore_errors=True)
     for name in (INDEX_HTML, MARKDOWN, PLOT_STEM + ".png", PLOT_STEM + ".svg"):

@@ -5,7 +5,8 @@
   skill weight), per policy, with the mean per difficulty score as a line;
 - `success_heatmap`: tasks (rows) x policies (columns), success % in each cell;
 - `success_by_parameter` (`_2`, ... when there are many): success % against each varied parameter, numbers in
-  equal-count bins (at the mean value of the bin), names per category, with 95 % intervals.
+  equal-count bins (at the mean value of the bin), names per category, with 95 % intervals; a parameter drawn in
+  some episodes only (an object of one task's scene) from those episodes, its panel says how many.
 """
 
 from __future__ import annotations
@@ -161,7 +162,10 @@ def success_by_parameters(episodes: pd.DataFrame, parameters: Sequence[str], ste
         rows = math.ceil(len(chosen) / columns)
         figure, grid = plt.subplots(rows, columns, figsize=(3.6 * columns, 2.8 * rows), squeeze=False)
         for axes, parameter in zip(grid.flat, chosen):
-            _parameter_panel(axes, breakdown(episodes, parameter, bins=bins), parameter, policies, colours)
+            drawn = episodes[episodes[parameter].notna()]  # a parameter of one task's object: its episodes only
+            _parameter_panel(axes, breakdown(drawn, parameter, bins=bins), parameter, policies, colours)
+            if len(drawn) < len(episodes):
+                axes.set_title(f"{axes.get_title()}\n{len(drawn)} of {len(episodes)} episodes", fontsize=9)
         for axes in list(grid.flat)[len(chosen):]:
             axes.set_visible(False)
         handles, labels = grid.flat[0].get_legend_handles_labels()
@@ -178,7 +182,9 @@ def _parameter_panel(axes, table: pd.DataFrame, parameter: str, policies: Sequen
     if table[parameter].dtype.name == "category":
         categories = [c for c in table[parameter].cat.categories if c in set(table[parameter])]
     else:
-        categories = sorted(table[parameter].unique(), key=str)
+        present = list(table[parameter].dropna().unique())
+        numbers = all(isinstance(v, (int, float, np.number)) and not isinstance(v, (bool, np.bool_)) for v in present)
+        categories = sorted(present) if numbers else sorted(present, key=str)
     span = 1.0
     if binned:
         centres = table[f"{parameter}_mean"].astype(float)

@@ -35,7 +35,7 @@ from robolab_ms.analysis.runs import DIFFICULTY_ORDER, TASK_COLUMNS, explode_col
 from robolab_ms.analysis.tables import LEGACY_METRIC_COLUMNS as _LEGACY_METRIC_SOURCES
 from robolab_ms.analysis.tables import METRIC_COLUMNS as _METRIC_SOURCES
 from robolab_ms.analysis.tables import metric_columns, success_interval
-from robolab_ms.errors import RoboLabError, did_you_mean
+from robolab_ms.errors import RoboLabError, did_you_mean, make_folder
 from robolab_ms.eval.results import EpisodeResult
 from robolab_ms.tasks.events import EVENT_TYPES
 
@@ -369,7 +369,7 @@ def report_markdown(report: Report, comparison=None) -> str:
 def write_report(report: Report, out: Path, comparison=None, plots: bool = True) -> list[Path]:
     """Write every table as `<name>.csv` and `<name>.parquet` (`overall`, `by_<grouping>`, `paired_*`), the
     filtered episodes, `analysis.md` and, with `plots`, the figures under `plots/`; returns the files."""
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out, "--out")
     written = []
     tables = {("overall" if name == "overall" else f"by_{name}"): table for name, (table, _) in report.tables.items()}
     tables["episodes"] = _flat(report.episodes)
@@ -396,8 +396,9 @@ def _flat(episodes: pd.DataFrame) -> pd.DataFrame:
     for column in flat.columns:
         if flat[column].dtype == object and flat[column].map(lambda v: isinstance(v, (dict, list))).any():
             flat[column] = flat[column].map(lambda v: None if v is None else str(v))
-        elif flat[column].dtype == object:
-            flat[column] = flat[column].map(lambda v: v if v is None or isinstance(v, str) else str(v))
+        elif flat[column].dtype == object:  # missing (None, NaN) stays missing, not the text "nan"
+            flat[column] = flat[column].map(lambda v: v if v is None or isinstance(v, str)
+                                            else None if isinstance(v, float) and math.isnan(v) else str(v))  # fmt: skip
     return flat
 
 

@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robolab_ms.errors import RoboLabError, did_you_mean
+from robolab_ms.errors import RoboLabError, did_you_mean, make_folder
 
 if TYPE_CHECKING:  # pandas, and torch through robolab_ms.analysis.runs, load when a command runs: `robolab --help`
     import pandas as pd  # stays fast
@@ -184,22 +184,31 @@ def variation_columns(runs: RunSet) -> list[str]:
     a synthetic folder's manifest lists), with at least one recorded value."""
     listed = set()
     for manifest in _manifests(runs):
-        listed.update((manifest.get("params") or {}) if manifest.get("synthetic") else {})
+        listed.update(_mapping(manifest.get("params")) if manifest.get("synthetic") else {})
     episodes = runs.episodes
     return [column for column in episodes.columns
             if (axis_parameter(column) or column in listed) and episodes[column].notna().any()]  # fmt: skip
 
 
 def _manifests(runs: RunSet) -> list[dict]:
+    """The folders' manifests; one that cannot be read, or is no JSON object, leaves the axis defaults or the
+    observed range (as do entries of the wrong shape in one, see `_recorded_ranges`)."""
     manifests = []
     for folder in runs.folders:
         path = Path(folder) / "manifest.json"
         if path.exists():
             try:
-                manifests.append(json.loads(path.read_text(encoding="utf-8")))
-            except (OSError, json.JSONDecodeError):
-                continue  # a manifest that cannot be read leaves the axis defaults or the observed range
+                manifest = json.loads(path.read_text(encoding="utf-8"))
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+                continue
+            if isinstance(manifest, dict):
+                manifests.append(manifest)
     return manifests
+
+
+def _mapping(value: Any) -> dict:
+    """A manifest entry that should be an object, or an empty one when it is something else."""
+    return value if isinstance(value, dict) else {}
 
 
 def _recorded_ranges(runs: RunSet) -> dict[str, list[tuple[float, float, bool]]]:
@@ -209,11 +218,11 @@ def _recorded_ranges(runs: RunSet) -> dict[str, list[tuple[float, float, bool]]]
     ranges: dict[str, list[tuple[float, float, bool]]] = {}
     for manifest in _manifests(runs):
         if manifest.get("synthetic"):
-            for name, values in (manifest.get("params") or {}).items():
+            for name, values in _mapping(manifest.get("params")).items():
                 if _is_number_pair(values):
                     ranges.setdefault(name, []).append((float(values[0]), float(values[1]), False))
-        for axis, params in ((manifest.get("variations") or {}).get("ranges") or {}).items():
-            for param, values in (params or {}).items():
+        for axis, params in _mapping(_mapping(manifest.get("variations")).get("ranges")).items():
+            for param, values in _mapping(params).items():
                 if _is_number_pair(values) and axis in AXES:
                     log = any(p.name == param and p.log for p in AXES[axis].params)
                     ranges.setdefault(f"{axis}.{param}", []).append((float(values[0]), float(values[1]), log))
@@ -222,7 +231,7 @@ def _recorded_ranges(runs: RunSet) -> dict[str, list[tuple[float, float, bool]]]
 
 def _is_number_pair(values: Any) -> bool:
     return (isinstance(values, (list, tuple)) and len(values) == 2
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values))  # fmt: skip
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values))  # fmt: skip
 
 
 def _continuous_parameter(column: str, values: pd.Series, recorded: dict) -> tuple[Parameter, str | None]:
@@ -845,7 +854,7 @@ def write_outputs(result: SensitivityResult, out_dir: Path, pairs: int = 6) -> l
     """The ranking (CSV, Markdown), the posterior samples (CSV, normalised scale, with weights) and the plots."""
     import pandas as pd
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir, "--out")
     result.table.to_csv(out_dir / TABLE_CSV, index=False, float_format="%.6g")
     (out_dir / TABLE_MD).write_text(to_markdown(result), encoding="utf-8")
     samples = pd.DataFrame(result.samples, columns=[p.name for p in result.parameters])
@@ -897,10 +906,10 @@ def run(args: Any) -> int:
     if args.pairs < 1 or args.threads < 1:
         raise RoboLabError(f"--pairs {args.pairs}, --threads {args.threads}: give at least 1")
     runs = load_runs(args.runs)
+    out_dir = make_folder(Path(args.out) if args.out else Path(args.runs[0]) / "sensitivity", "--out")
     result = analyse(runs, args.params, args.obs, parse_at(args.at), args.epochs, args.samples, args.seed,
                      args.beta, args.reweight, args.policy, args.task, args.batch_size, args.threads,
                      args.null)  # fmt: skip
-    out_dir = Path(args.out) if args.out else Path(args.runs[0]) / "sensitivity"
     paths = write_outputs(result, out_dir, args.pairs)
     print(to_markdown(result, timing=True), end="")
     print(f"\nwrote {', '.join(str(p) for p in paths)}")

@@ -27,7 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from robolab_ms.errors import RoboLabError
+from robolab_ms.errors import ResultsError, RoboLabError, make_folder
+from robolab_ms.eval.results import (InvalidValue, as_count, as_events, as_flag, as_integer, as_name, as_names,
+                                     as_number, as_text, optional, shown)  # fmt: skip
 
 CODEBASE_VERSION = "v3.0"
 CHUNKS_SIZE = 1000  # files per chunk folder
@@ -44,6 +46,19 @@ QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
 IMAGE_STAT_FRAMES = 100  # frames per episode sampled for image statistics
 IMAGE_STAT_WIDTH = 160  # sampled frames are thinned to about this width
 VIDEO_CODEC = "h264"
+RECORDING_FIX = ("Record the episode again, or move this recording (its .h5 and .json) out of the folder to export "
+                 "the others")  # fmt: skip
+# the fields of a recording's `robolab` block that the export reads, and what each must be (absent: its default)
+META_KINDS = {
+    "task": as_name, "instruction": optional(as_text), "instruction_variant": optional(as_text),
+    "robot": optional(as_text), "policy": optional(as_text), "seed": as_integer, "control_hz": as_count,
+    "cameras": optional(as_names), "arm_joints": optional(as_names), "success": optional(as_flag),
+    "score": optional(as_number), "progress": optional(as_number), "events": optional(as_events),
+    "error": optional(as_text),
+}  # fmt: skip
+# datasets of a recording's trajectory group that the export reads, with the rows each needs (T: actions)
+TRAJECTORY_DATASETS = {"actions": "T", "success": "T", "robolab/joint_position": "T + 1",
+                       "obs/extra/gripper_position": "T + 1"}  # fmt: skip
 
 
 @dataclass
@@ -117,7 +132,7 @@ def _load_episodes(run_dir: Path, success_only: bool, tasks: list[str] | None, r
 
     episodes = []
     for recording in find_recordings(run_dir):
-        meta = json.loads(recording.with_suffix(".json").read_text(encoding="utf-8"))
+        meta = _recording_meta(recording.with_suffix(".json"))
         info = meta.get("robolab", {})
         name = recording.relative_to(run_dir).as_posix() if recording.is_relative_to(run_dir) else recording.name
         if "robolab" not in meta:
@@ -135,14 +150,67 @@ def _load_episodes(run_dir: Path, success_only: bool, tasks: list[str] | None, r
     return episodes
 
 
-def _read(episode: _Episode, cameras: list[str]) -> dict[str, np.ndarray]:
-    """The arrays one episode contributes, T rows each (T = its number of actions)."""
+def _recording_meta(path: Path) -> dict[str, Any]:
+    """A recording's .json with the fields the export reads checked (META_KINDS, `episodes[0].elapsed_steps`);
+    ResultsError naming the file and the field otherwise. A .json without a `robolab` block is returned as it is
+    (the export skips it: not ours)."""
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ResultsError(path, None, "", f"cannot be read as JSON ({exc})", RECORDING_FIX) from None
+    if not isinstance(meta, dict):
+        raise ResultsError(path, None, "", f"is {shown(meta)}, not a recording description (a JSON object)",
+                           RECORDING_FIX)  # fmt: skip
+    if "robolab" not in meta:
+        return meta
+    info, field = meta["robolab"], "robolab"
+    try:
+        if not isinstance(info, dict):
+            raise InvalidValue(f"is {shown(info)}, expected an object")
+        for key, kind in META_KINDS.items():
+            field = f"robolab.{key}"
+            if key in info:
+                kind(info[key])
+        field = "robolab.control_hz"
+        if info.get("control_hz") == 0:
+            raise InvalidValue("is 0, expected the control rate in Hz (15)")
+        field = "episodes"
+        episodes = meta.get("episodes", [])
+        if not isinstance(episodes, list) or not all(isinstance(item, dict) for item in episodes):
+            raise InvalidValue(f"is {shown(episodes)}, expected a list of episode objects")
+        if episodes and "elapsed_steps" in episodes[0]:
+            field = "episodes[0].elapsed_steps"
+            as_count(episodes[0]["elapsed_steps"])
+    except InvalidValue as exc:
+        raise ResultsError(path, None, field, str(exc), RECORDING_FIX) from None
+    return meta
+
+
+def _open_trajectory(path: Path) -> Any:
+    """The recording's HDF5 file, open for reading; ResultsError when it is not one."""
     import h5py
 
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        raise ResultsError(path, None, "", f"is not a readable HDF5 file ({exc})", RECORDING_FIX) from None
+
+
+def _read(episode: _Episode, cameras: list[str]) -> dict[str, np.ndarray]:
+    """The arrays one episode contributes, T rows each (T = its number of actions)."""
     from robolab_ms.eval.recording import TRAJECTORY_KEY
 
-    with h5py.File(episode.recording, "r") as file:
-        group = file[TRAJECTORY_KEY]
+    with _open_trajectory(episode.recording) as file:
+        group = file.get(TRAJECTORY_KEY)
+        for key in TRAJECTORY_DATASETS:
+            if group is None or key not in group:
+                raise ResultsError(episode.recording, None, f"{TRAJECTORY_KEY}/{key}", "is missing", RECORDING_FIX)
+        steps = len(group["actions"])
+        for key, rows in TRAJECTORY_DATASETS.items():
+            needed = steps + (1 if rows == "T + 1" else 0)
+            if len(group[key]) != needed:
+                raise ResultsError(episode.recording, None, f"{TRAJECTORY_KEY}/{key}", f"has {len(group[key])} "
+                                   f"rows, expected {rows} = {needed} ({steps} actions)", RECORDING_FIX)  # fmt: skip
         actions = np.asarray(group["actions"], dtype=np.float32)
         steps = len(actions)
         joints = np.asarray(group["robolab/joint_position"][:steps], dtype=np.float32)
@@ -180,6 +248,8 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
     import pyarrow.parquet as pq
 
     run_dir, out_dir = Path(run_dir), Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise RoboLabError(f"{out_dir} is a file; give a new folder for the dataset")
     if out_dir.exists() and any(out_dir.iterdir()):
         raise RoboLabError(f"{out_dir} is not empty; give a new folder for the dataset")
     if frames_per_file < 1:
@@ -196,11 +266,9 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
     arm_joints = list(first.get("arm_joints") or [f"joint_{i}" for i in range(7)])
     robot = first.get("robot")
     cameras = list(first.get("cameras") or []) if videos else []
-    import h5py
-
     from robolab_ms.eval.recording import TRAJECTORY_KEY
 
-    with h5py.File(episodes[0].recording, "r") as file:
+    with _open_trajectory(episodes[0].recording) as file:
         cameras = [c for c in cameras if f"{TRAJECTORY_KEY}/obs/sensor_data/{c}/rgb" in file]
         shapes = {c: tuple(file[f"{TRAJECTORY_KEY}/obs/sensor_data/{c}/rgb"].shape[1:]) for c in cameras}
     for episode in episodes:
@@ -237,7 +305,7 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
         ("timestamp", pa.float32()), ("frame_index", pa.int64()), ("episode_index", pa.int64()),
         ("index", pa.int64()), ("task_index", pa.int64()), ("next.done", pa.bool_()), ("next.success", pa.bool_()),
     ])  # fmt: skip
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir, "OUT_DIR")
     rows: list[dict[str, Any]] = []
     numeric: dict[str, list[np.ndarray]] = {name: [] for name in features if features[name]["dtype"] != "video"}
     samples: dict[str, list[np.ndarray]] = {key: [] for key in video_keys}

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
-from robolab_ms.errors import RoboLabError
+from robolab_ms.errors import RoboLabError, make_folder
 from robolab_ms.eval.process_pool import ProcessPool
 from robolab_ms.eval.ray_pool import RayPool
 from robolab_ms.eval.results import EpisodeResult, read_results
@@ -62,8 +62,7 @@ def run_parallel(policy: Policy, policy_spec: PolicySpec, config: EvalConfig, ou
     if workers is not None and workers < 1:
         raise RoboLabError(f"--workers must be at least 1, got {workers}")
     config = replace(config, robot=config.robot or DEFAULT_ROBOT)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = make_folder(out_dir, "--out")
     specs = [load_task(task) for task in config.tasks]  # check every task before starting any worker
     with exclusive_writer(out_dir):
         _check_same_variations(read_results(out_dir), policy, config, out_dir)

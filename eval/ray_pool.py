@@ -64,6 +64,21 @@ class _RayEpisodeActor:
             shutil.rmtree(self.scratch, ignore_errors=True)
 
 
+def _unreachable(address: str, seconds: float = 5.0) -> str | None:
+    """Why nothing listens at a --ray HOST:PORT address (None when something does, or the address is `auto` or
+    has no port): Ray itself keeps retrying an address where no cluster runs for minutes."""
+    import socket
+
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit():
+        return None
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=seconds):
+            return None
+    except OSError as error:
+        return error.strerror or str(error) or type(error).__name__
+
+
 def _loopback(address: str) -> bool:
     """Whether a --ray value means this machine only: `local`, or a cluster address on the loopback interface."""
     if address == LOCAL_RAY:
@@ -94,6 +109,10 @@ class RayPool:
                 options.update(num_cpus=count or os.cpu_count(), include_dashboard=False)
             else:
                 options["address"] = address
+                problem = _unreachable(address)
+                if problem:
+                    raise RoboLabError(f"--ray {address}: no Ray cluster answers there ({problem}); start one with "
+                                       "`ray start --head` or use --ray local")  # fmt: skip
             try:
                 ray.init(**options)
             except (ConnectionError, ValueError, RuntimeError) as exc:

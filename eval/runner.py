@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from robolab_ms.errors import RoboLabError
+from robolab_ms.errors import RoboLabError, make_folder
 from robolab_ms.eval.recording import EpisodeRecorder, RecordOptions
 from robolab_ms.eval.results import (
     EpisodeResult, append_result, episode_key, exclusive_writer, read_results, to_json_value,
@@ -78,7 +78,7 @@ def run_evaluation(policy: Policy, config: EvalConfig, out_dir: Path, show_progr
     """Run every missing episode and append its result; returns all results of this policy in `out_dir`.
 
     The policy is connected first: PolicyUnavailableError (no server at the address) stops before any episode."""
-    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    make_folder(out_dir, "--out")
     with exclusive_writer(out_dir):  # one run per results folder at a time
         policy.connect()
         try:

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from robolab_ms.errors import RoboLabError
+from robolab_ms.errors import RoboLabError, make_folder
 from robolab_ms.eval.results import EpisodeResult, append_result, episode_key
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 
@@ -420,8 +420,7 @@ def validate_parallel(tasks: list[str], seeds: int, out_dir: Path, first_seed: i
     specs = [load_task(task) for task in tasks]  # every task checked before any worker starts
     seed_range = range(first_seed, first_seed + seeds)
     config = validation_config(tuple(str(spec.file) for spec in specs), seeds, first_seed, variations)
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = make_folder(out_dir, "--out")
     with exclusive_writer(out_dir):
         results = {r.key(): r for r in read_results(out_dir)}
         policies = {name: make_policy(name) for name in (RANDOM, ORACLE)}

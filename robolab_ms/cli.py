@@ -107,6 +107,10 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
     if args.episodes < 1:
         raise RoboLabError(f"--episodes must be at least 1, got {args.episodes}")
+    if args.max_steps is not None and args.max_steps < 1:
+        raise RoboLabError(f"--max-steps must be at least 1, got {args.max_steps}")
+    if args.seed < 0:
+        raise RoboLabError(f"--seed must be 0 or more (episode seeds are --seed, --seed+1, ...), got {args.seed}")
     if args.workers is not None and args.workers < 1:
         raise RoboLabError(f"--workers must be at least 1, got {args.workers}")
     _check_adaptive(args)
@@ -632,13 +636,16 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
     if args.seeds < 1:
         raise RoboLabError(f"--seeds must be at least 1, got {args.seeds}")
+    if args.seed < 0:
+        raise RoboLabError(f"--seed must be 0 or more (the seeds are --seed, --seed+1, ...), got {args.seed}")
     if args.workers < 1:
         raise RoboLabError(f"--workers must be at least 1, got {args.workers}")
     if not args.all and not args.task:
         raise RoboLabError("name the tasks to validate with --task NAME ..., or use --all")
     tasks = task_names() if args.all else list(_task_arguments(args.task))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    from robolab_ms.errors import make_folder
+
+    out = make_folder(args.out, "--out")
     rows = []
     try:
         if args.workers > 1:
@@ -869,10 +876,26 @@ def main(argv: list[str] | None = None) -> int:
 
         for folder in getattr(args, "content", None) or []:
             add_content_root(folder)
-        return args.run(args)
+        code = args.run(args)
+        sys.stdout.flush()  # here, so that a reader gone away (`robolab list | head`) is caught below
+        return code
     except RoboLabError as error:
         print(f"robolab: error: {error}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # the reader of stdout stopped reading: nothing more to say to it
+        _stdout_to_devnull()
+        return 1
+
+
+def _stdout_to_devnull() -> None:
+    """Point stdout at the null device, so that flushing it at exit does not fail on a closed pipe again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout without a file descriptor (captured): nothing to redirect
+        pass
 
 
 if __name__ == "__main__":

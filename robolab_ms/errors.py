@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import os
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -25,6 +26,23 @@ class SpecError(RoboLabError):
         super().__init__(message)
 
 
+class ResultsError(RoboLabError):
+    """A results file that cannot be read (a line of `episodes.jsonl`, a recording's .json or .h5): names the file,
+    the line where there is one, the field and a fix."""
+
+    def __init__(self, file: str | Path, line: int | None, field: str, problem: str, fix: str = "") -> None:
+        self.file = str(file)
+        self.line = line
+        self.field = field
+        self.problem = problem
+        self.fix = fix
+        message = self.file + (f" line {line}" if line is not None else "") + (f", field '{field}'" if field else "")
+        message += f": {problem}"
+        if fix:
+            message += f". {fix}"
+        super().__init__(message)
+
+
 class UnknownNameError(RoboLabError):
     """A name (task, object, predicate, policy ...) that does not exist; suggests close matches."""
 
@@ -32,6 +50,24 @@ class UnknownNameError(RoboLabError):
         known = sorted(known)
         self.kind, self.name, self.known = kind, name, known
         super().__init__(f"unknown {kind} '{name}'. {did_you_mean(name, known)}")
+
+
+def make_folder(path: str | Path, option: str = "") -> Path:
+    """Create an output folder (with its parents) and return it; a RoboLabError naming the option, the folder and
+    why, when it cannot be made (a file in the way, no permission) or is not writable."""
+    path = Path(path)
+    where = f"{option} {path}" if option else str(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        blocking = next((p for p in [path, *path.parents] if p.exists() and not p.is_dir()), path)
+        raise RoboLabError(f"{where}: cannot create this folder: {blocking} is a file; choose another folder") from None
+    except OSError as error:
+        raise RoboLabError(f"{where}: cannot create this folder ({error.strerror or error}); choose a folder you can "
+                           "write to") from None  # fmt: skip
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise RoboLabError(f"{where}: this folder is not writable; choose a folder you can write to")
+    return path
 
 
 def did_you_mean(name: str, known: Iterable[str]) -> str:

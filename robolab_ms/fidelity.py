@@ -219,6 +219,8 @@ def fidelity_report(scenes: Sequence[str] | None = None, width: int = 160, heigh
 
     from robolab_ms.errors import RoboLabError
 
+    if width < 1 or height < 1:
+        raise RoboLabError(f"--width {width} --height {height}: give a camera size of at least 1 x 1 pixels")
     report = FidelityReport(width=width, height=height)
     specs = []
     for name in list(scenes) if scenes else scene_names():

@@ -128,6 +128,50 @@ def test_cli_errors_say_what_to_do(runs, tmp_path, capsys):
     assert "exactly two policies" in capsys.readouterr().err
 
 
+# drawn parameters as `robolab eval --vary lighting,objects` records them: the Rubik's cube of RubiksCubeLeftOfBowl is
+# in no scene of BananaInBowl, so its offsets are missing from BananaInBowl's lines
+DRAWN = {
+    "BananaInBowl": [{"light_color": "blue", "light_intensity": 0.8472, "obj_banana_dx": -0.09221, "obj_bowl_dx": 0.07953},
+                     {"light_color": "blue", "light_intensity": 1.381, "obj_banana_dx": 0.06941, "obj_bowl_dx": -0.05252},
+                     {"light_color": "green", "light_intensity": 0.1544, "obj_banana_dx": 0.03099,
+                      "obj_bowl_dx": -0.09764}],
+    "RubiksCubeLeftOfBowl": [{"light_color": "blue", "light_intensity": 0.8472, "obj_banana_dx": -0.02242,
+                              "obj_bowl_dx": 0.0456, "obj_rubiks_cube_dx": -0.04703},
+                             {"light_color": "blue", "light_intensity": 1.381, "obj_banana_dx": 0.06941,
+                              "obj_bowl_dx": -0.05252, "obj_rubiks_cube_dx": -0.04852},
+                             {"light_color": "green", "light_intensity": 0.1544, "obj_banana_dx": 0.03099,
+                              "obj_bowl_dx": -0.09764, "obj_rubiks_cube_dx": -0.06039}],
+}  # fmt: skip
+
+
+def _write_varied_run(folder, policy: str, success: bool) -> None:
+    """Three episodes per task of DRAWN, written with the results writer of `robolab eval`."""
+    from robolab_ms.eval.results import EpisodeResult, append_result
+
+    folder.mkdir(parents=True)
+    for task, draws in DRAWN.items():
+        for seed, drawn in enumerate(draws):
+            append_result(folder, EpisodeResult(
+                task=task, instruction_variant="default", instruction="(test)", robot="droid", policy=policy,
+                seed=seed, success=success, score=1.0 if success else 0.0, progress=1.0 if success else 0.0,
+                steps=120, max_steps=750, success_step=120 if success else None, wall_seconds=1.5,
+                metrics={"ee_sparc": -3.5, "ee_path_length": 0.8}, variations="lighting,objects",
+                variation=dict(drawn)))  # fmt: skip
+
+
+def test_parameter_drawn_for_one_task_only_is_plotted_from_its_episodes(tmp_path, capsys):
+    _write_varied_run(tmp_path / "oracle", "oracle", True)
+    _write_varied_run(tmp_path / "random", "random", False)
+    out = tmp_path / "report"
+    assert main(["analyze", str(tmp_path / "oracle"), str(tmp_path / "random"), "--out", str(out)]) == 0
+    capsys.readouterr()
+    svg = (out / "plots" / "success_by_parameter.svg").read_text()
+    assert "obj_rubiks_cube_dx" in svg and "6 of 12 episodes" in svg and "obj_banana_dx" in svg
+    table = pd.read_csv(out / "by_obj_rubiks_cube_dx.csv")
+    assert table["episodes"].sum() == 12 and table["obj_rubiks_cube_dx"].isna().sum() == 2  # one group per policy
+    assert table.loc[table["obj_rubiks_cube_dx"].isna(), "episodes"].tolist() == [3, 3]
+
+
 @pytest.mark.slow
 def test_paired_comparison_on_files_finds_the_known_difference(tmp_path):
     tasks = list(RATES)

@@ -32,7 +32,7 @@ from robolab_ms.catalog.schema import (
     read_catalog,
 )
 from robolab_ms.content import CONTENT_ENV, USER_CATALOG, load_yaml, user_content_roots
-from robolab_ms.errors import RoboLabError, did_you_mean
+from robolab_ms.errors import RoboLabError, did_you_mean, make_folder
 
 MESH_SUFFIXES = (".obj", ".glb", ".stl")
 # Rotation (extrinsic x, y, z, degrees) that turns each up axis of a file into +z.
@@ -372,7 +372,8 @@ def add_object(
     suffix = source.suffix.lower()
     staging = mesh_folder.with_name(f".{name}.new")  # copied first: the source may lie in the folder it replaces
     shutil.rmtree(staging, ignore_errors=True)
-    staging.mkdir(parents=True)
+    make_folder(staging.parent, "--content")
+    staging.mkdir()
     for file in [source, *survey.companions]:
         target = staging / file.relative_to(source.parent)
         target.parent.mkdir(parents=True, exist_ok=True)

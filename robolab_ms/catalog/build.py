@@ -247,8 +247,17 @@ def build_catalog(
 ) -> BuildReport:
     """Build every mesh object of a catalog file (or only `names`), then check and rewrite the file (keeping the
     comment lines it starts with)."""
+    from robolab_ms.errors import SpecError, UnknownNameError
+
     data = load_yaml(catalog_file)
-    objects = data["objects"]
+    objects = data.get("objects") if isinstance(data, dict) else None
+    if not isinstance(objects, dict) or not all(isinstance(entry, dict) for entry in objects.values()):
+        raise SpecError(catalog_file, "objects", f"must be a mapping of object names to entries, got "
+                        f"{type(objects).__name__ if objects is not None else 'nothing'}",
+                        "Give a catalog file such as assets/catalog.yaml")  # fmt: skip
+    for name in names or []:
+        if name not in objects:
+            raise UnknownNameError("catalog object", name, objects)
     out_dir = collision_dir(catalog_file)
     report = BuildReport()
     header = file_header(catalog_file) or HEADER

@@ -256,11 +256,21 @@ def check_catalog(catalog: Catalog, names: list[str] | None = None, render: bool
     return results
 
 
+MIN_TILE = 16  # pixels: smaller tiles show nothing recognisable
+
+
 def contact_sheet(catalog: Catalog, out: Path, names: list[str] | None = None, tile: int = 112,
                   columns: int = 16, progress: Callable[[str], None] = print) -> Path:  # fmt: skip
     """Render every object (or `names`) into one labelled grid image (PNG) at `out`."""
     from PIL import Image, ImageDraw, ImageFont
 
+    from robolab_ms.errors import RoboLabError, make_folder
+
+    if tile < MIN_TILE:
+        raise RoboLabError(f"--tile {tile}: give at least {MIN_TILE} pixels")
+    if out.suffix.lower() != ".png":
+        raise RoboLabError(f"--out {out}: the contact sheet is a PNG image; give a file name ending in .png")
+    make_folder(out.parent, "--out")  # before the rendering, which takes a while
     names = names or catalog.names()
     label_height = 14
     rows = math.ceil(len(names) / columns)
@@ -275,6 +285,9 @@ def contact_sheet(catalog: Catalog, out: Path, names: list[str] | None = None, t
         draw.text((x + 2, y + tile + 1), label, fill=(0, 0, 0), font=font)
         if (index + 1) % columns == 0 or index + 1 == len(names):
             progress(f"rendered {index + 1}/{len(names)}")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    sheet.save(out, optimize=True)
+    try:
+        sheet.save(out, optimize=True)
+    except OSError as error:
+        raise RoboLabError(f"--out {out}: cannot write the image ({error.strerror or error}); choose a file you can "
+                           "write") from None  # fmt: skip
     return out

@@ -26,12 +26,13 @@ def add_scene_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_scene(args: argparse.Namespace) -> int:
     from robolab_ms.catalog import load_catalog
-    from robolab_ms.errors import RoboLabError
+    from robolab_ms.errors import RoboLabError, make_folder
     from robolab_ms.generation.offline import OfflineSceneModel
     from robolab_ms.generation.scene import generate_scene
 
     if args.rounds < 1:
         raise RoboLabError(f"--rounds {args.rounds}: give at least 1")
+    make_folder(Path(args.out).parent, "--out")
     catalog = load_catalog()
     model = OfflineSceneModel(catalog) if args.llm == "offline" else chat_client_from_args(args)
     result = generate_scene(args.prompt, Path(args.out), model, method=args.method, objects=args.objects,
@@ -87,11 +88,12 @@ def add_task_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_task(args: argparse.Namespace) -> int:
     from robolab_ms.catalog import load_catalog
-    from robolab_ms.errors import RoboLabError
+    from robolab_ms.errors import RoboLabError, make_folder
     from robolab_ms.generation.judge import ModelJudge, RulesJudge
     from robolab_ms.generation.offline_task import OfflineTaskModel
     from robolab_ms.generation.task import generate_task, resolve_scene
 
+    make_folder(Path(args.out).parent, "--out")
     catalog = load_catalog()
     scene = resolve_scene(args.scene)
     model = OfflineTaskModel(catalog, scene) if args.llm == "offline" else chat_client_from_args(args)

@@ -36,7 +36,7 @@ from robolab_ms.catalog import Catalog, CatalogObject, load_catalog
 from robolab_ms.catalog.appearance import part_look
 from robolab_ms.catalog.meshes import load_mesh
 from robolab_ms.catalog.procedural import Part, quat_multiply, quat_to_matrix, yaw_quat
-from robolab_ms.errors import RoboLabError
+from robolab_ms.errors import RoboLabError, make_folder
 from robolab_ms.scene.spec import (
     RESERVED_NAMES,
     ROBOT_PEDESTAL_CENTER,
@@ -83,7 +83,7 @@ def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> 
     catalog = catalog or load_catalog()
     out = Path(out)
     check_suffix(out, "--usd")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(out.parent, "--usd")
     assets_dir = out.parent / ASSETS_FOLDER
     asset_files: dict[str, Path] = {}
     for placement in spec.objects:

@@ -18,7 +18,7 @@ import numpy as np
 
 from robolab_ms.catalog import COLOR_NAMES, Catalog, load_catalog
 from robolab_ms.content import Fields, load_yaml
-from robolab_ms.errors import RoboLabError, did_you_mean
+from robolab_ms.errors import RoboLabError, did_you_mean, make_folder
 from robolab_ms.scene.spec import (
     DEFAULT_TABLE_COLOR,
     DEFAULT_TABLE_SIZE,
@@ -76,6 +76,14 @@ def read_mapping(file: Path, catalog: Catalog) -> dict[str, str | None]:
     return mapping
 
 
+def _usd_error_text(error: Exception) -> str:
+    """USD's first error message without its C++ location: "Error in 'Func' at line N in file F : 'message'"."""
+    text = str(error).strip()
+    first = text.split("Error in ")[1] if "Error in " in text else text
+    message = first.split(" : ", 1)[1] if " : " in first else first
+    return " ".join(message.strip().strip("'").split())[:300]
+
+
 def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog: Catalog | None = None
                  ) -> ImportReport:  # fmt: skip
     """Read the layout of USD file `usd` into the scene file `out` (its name is the file's stem) and read that back
@@ -92,7 +100,11 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
     if not usd.is_file():
         raise RoboLabError(f"{usd} is not a file. Name a USD file (.usda, .usd, .usdc)")
     mapping = read_mapping(mapping_file, catalog) if mapping_file else {}
-    stage = Usd.Stage.Open(str(usd))
+    try:
+        stage = Usd.Stage.Open(str(usd))
+    except pxr.Tf.ErrorException as error:  # a file USD cannot parse
+        raise RoboLabError(f"{usd} does not open as a USD stage ({_usd_error_text(error)}); give a USD file that "
+                           "`usdcat` reads") from None  # fmt: skip
     if stage is None:
         raise RoboLabError(f"{usd} does not open as a USD stage")
     notes = [f"USD: {error}" for error in stage.GetCompositionErrors()]
@@ -411,7 +423,7 @@ def _table_rgba(table_prim) -> tuple[float, float, float, float]:
 def _write_scene_file(data: dict, out: Path, usd: Path) -> None:
     import yaml
 
-    out.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(out.parent, "--out")
     header = (f"# Imported from {usd.name} by `robolab scene import`.\n"
               "# Frame: x away from the robot, y to its left, z up; the table top is z = 0.\n")  # fmt: skip
     body = yaml.safe_dump({key: data[key] for key in ("name", "description")}, sort_keys=False, width=120,
