@@ -56,11 +56,15 @@ VIDEO_DIR = "videos"
 PLOT_STEM = "sim_to_real"
 SITE_MARKER = ".robolab-leaderboard"  # marks a folder as a site this command wrote (and may rewrite)
 VIDEO_MODES = ("copy", "link", "none")
-RANKING_RULE = ("Ranked by overall success rate (successes / episodes over all of a policy's episodes), ties by "
-                "mean score, then by name; equal rate and score share a rank.")  # fmt: skip
-INTERVAL_NOTE = ("Intervals: 95 % equal-tailed Bayesian interval of the success rate under a uniform prior, "
-                 "Beta(k + 1, n - k + 1). Score: mean graded score (1 for a success); Score(fail): mean over the "
-                 "failed episodes.")  # fmt: skip
+RANKING_RULE = (
+    "Ranked by overall success rate (successes / episodes over all of a policy's episodes), ties by "
+    "mean score, then by name; equal rate and score share a rank."
+)
+INTERVAL_NOTE = (
+    "Intervals: 95 % equal-tailed Bayesian interval of the success rate under a uniform prior, "
+    "Beta(k + 1, n - k + 1). Score: mean graded score (1 for a success); Score(fail): mean over the "
+    "failed episodes."
+)
 FEW_POLICIES = 10  # below this many policies the correlation intervals are called wide
 BOOTSTRAP_RESAMPLES = 4000
 PERFECT_TOLERANCE = 1e-9  # |r| this close to 1 counts as a perfect correlation (no Fisher interval)
@@ -88,8 +92,18 @@ class Rate:
         return success_interval(self.successes, self.episodes)
 
 
-TASK_COLUMNS = ("policy", "task", "episodes", "successes", "score", "score_fail", "time_to_success_s", "ee_sparc",
-                "ee_path_cm", "ee_speed_mean_cm_s")  # fmt: skip
+TASK_COLUMNS = (
+    "policy",
+    "task",
+    "episodes",
+    "successes",
+    "score",
+    "score_fail",
+    "time_to_success_s",
+    "ee_sparc",
+    "ee_path_cm",
+    "ee_speed_mean_cm_s",
+)
 
 
 def rank_policies(episodes: pd.DataFrame) -> pd.DataFrame:
@@ -108,13 +122,17 @@ def rank_policies(episodes: pd.DataFrame) -> pd.DataFrame:
     intervals = [success_interval(int(k), int(n)) for k, n in zip(table["successes"], table["episodes"])]
     table["success_low"] = [low for low, _ in intervals]
     table["success_high"] = [high for _, high in intervals]
-    table = table.sort_values(["success", "score", "policy"], ascending=[False, False, True], na_position="last",
-                              kind="mergesort").reset_index(drop=True)  # fmt: skip
+    table = table.sort_values(
+        ["success", "score", "policy"], ascending=[False, False, True], na_position="last", kind="mergesort"
+    ).reset_index(drop=True)
     ranks: list[int] = []
     for position, row in enumerate(table.itertuples(index=False)):
         previous = table.iloc[position - 1] if position else None
-        tied = previous is not None and row.success == previous["success"] and (
-            row.score == previous["score"] or (math.isnan(row.score) and math.isnan(previous["score"])))
+        tied = (
+            previous is not None
+            and row.success == previous["success"]
+            and (row.score == previous["score"] or (math.isnan(row.score) and math.isnan(previous["score"])))
+        )
         ranks.append(ranks[-1] if tied else position + 1)
     table.insert(0, "rank", ranks)
     return table
@@ -164,8 +182,10 @@ def read_real_world(path: str | Path) -> list[RealWorldResult]:
     """The rows of a real-world results CSV: columns `policy` and `success` (a fraction 0..1, or a percentage
     written with its sign, `45%`), optionally `episodes` (real trials); other columns are ignored."""
     path = Path(path)
-    shape = ("a CSV with a header line `policy,success` and one row per policy, success as a fraction between 0 "
-             "and 1 (0.45) or a percentage with its sign (45%); an `episodes` column is optional")  # fmt: skip
+    shape = (
+        "a CSV with a header line `policy,success` and one row per policy, success as a fraction between 0 "
+        "and 1 (0.45) or a percentage with its sign (45%); an `episodes` column is optional"
+    )
     if not path.is_file():
         raise RoboLabError(f"{path}: no such file; give {shape}")
     try:
@@ -185,8 +205,10 @@ def read_real_world(path: str | Path) -> list[RealWorldResult]:
     for name in ("policy", "success"):
         if name not in header:
             columns = ", ".join(repr(h) for h in header)
-            raise RoboLabError(f"{path}: line {header_line} (header): no column '{name}' (columns: {columns}). "
-                               f"{did_you_mean(name, header)} Give {shape}")  # fmt: skip
+            raise RoboLabError(
+                f"{path}: line {header_line} (header): no column '{name}' (columns: {columns}). "
+                f"{did_you_mean(name, header)} Give {shape}"
+            )
     for name in set(header):
         if name and header.count(name) > 1:
             raise RoboLabError(f"{path}: line {header_line} (header): column '{name}' appears twice; keep one")
@@ -197,15 +219,18 @@ def read_real_world(path: str | Path) -> list[RealWorldResult]:
     for row_number, (line, row) in enumerate(lines[1:], start=1):
         where = f"{path}: row {row_number} (line {line})"
         if len(row) != len(header):
-            raise RoboLabError(f"{where}: {len(row)} fields where the header has {len(header)}; give one value per "
-                               "column (quote a value that contains a comma)")  # fmt: skip
+            raise RoboLabError(
+                f"{where}: {len(row)} fields where the header has {len(header)}; give one value per "
+                "column (quote a value that contains a comma)"
+            )
         cells = dict(zip(header, (cell.strip() for cell in row)))
         policy = cells["policy"]
         if not policy:
             raise RoboLabError(f"{where}, column 'policy': empty; give the policy's name as in the results")
         if policy in seen:
-            raise RoboLabError(f"{where}, column 'policy': '{policy}' already given on line {seen[policy]}; give "
-                               "each policy once")  # fmt: skip
+            raise RoboLabError(
+                f"{where}, column 'policy': '{policy}' already given on line {seen[policy]}; give each policy once"
+            )
         seen[policy] = line
         success = _parse_success(cells["success"], f"{where}, column 'success'")
         episodes = None
@@ -221,14 +246,19 @@ def _parse_success(text: str, where: str) -> float:
     try:
         value = float(number)
     except ValueError:
-        raise RoboLabError(f"{where}: '{text}' is not a number; give a fraction between 0 and 1 (0.45) or a "
-                           "percentage with its sign (45%)") from None  # fmt: skip
+        raise RoboLabError(
+            f"{where}: '{text}' is not a number; give a fraction between 0 and 1 (0.45) or a "
+            "percentage with its sign (45%)"
+        ) from None
     if not math.isfinite(value):
         raise RoboLabError(f"{where}: '{text}' is not a finite number; give the measured success rate")
     top = 100.0 if percent else 1.0
     if not 0.0 <= value <= top:
-        fix = "give a percentage between 0% and 100%" if percent else (
-            "give a fraction between 0 and 1, or write a percentage with its sign (45%)")
+        fix = (
+            "give a percentage between 0% and 100%"
+            if percent
+            else ("give a fraction between 0 and 1, or write a percentage with its sign (45%)")
+        )
         raise RoboLabError(f"{where}: {text} is outside 0..{top:g}; {fix}")
     return value / top
 
@@ -237,8 +267,9 @@ def _parse_episodes(text: str, where: str) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise RoboLabError(f"{where}: '{text}' is not a whole number; give the number of real trials, or leave it "
-                           "empty") from None  # fmt: skip
+        raise RoboLabError(
+            f"{where}: '{text}' is not a whole number; give the number of real trials, or leave it empty"
+        ) from None
     if value < 1:
         raise RoboLabError(f"{where}: {value} trials; give at least 1, or leave it empty")
     return value
@@ -313,9 +344,13 @@ def correlate(sim: Sequence[float], real: Sequence[float], method: str) -> Corre
 
     n = len(sim)
     if n < 3:
-        return Correlation(method, n, note=f"not computed: {n} polic{'y' if n == 1 else 'ies'} in both the "
-                           "results and the real-world file; a correlation needs at least 3 (with 2 it is always "
-                           "+1 or -1)")  # fmt: skip
+        return Correlation(
+            method,
+            n,
+            note=f"not computed: {n} polic{'y' if n == 1 else 'ies'} in both the "
+            "results and the real-world file; a correlation needs at least 3 (with 2 it is always "
+            "+1 or -1)",
+        )
     if np.ptp(np.asarray(sim, float)) == 0 or np.ptp(np.asarray(real, float)) == 0:
         side = "simulated" if np.ptp(np.asarray(sim, float)) == 0 else "real"
         return Correlation(method, n, note=f"not defined: every {side} success rate is the same")
@@ -326,8 +361,11 @@ def correlate(sim: Sequence[float], real: Sequence[float], method: str) -> Corre
     notes = []
     fisher = fisher_interval(r, n, method)
     if fisher is None:
-        notes.append("Fisher interval needs at least 4 policies" if n < 4 else
-                     f"Fisher interval not defined at {'rho' if method == 'Spearman' else 'r'} = {r:+.0f}")  # fmt: skip
+        notes.append(
+            "Fisher interval needs at least 4 policies"
+            if n < 4
+            else f"Fisher interval not defined at {'rho' if method == 'Spearman' else 'r'} = {r:+.0f}"
+        )
     bootstrap = _bootstrap_interval(sim, real, method)
     if bootstrap is None:
         notes.append("bootstrap interval not defined: most resamples have a constant side")
@@ -350,22 +388,38 @@ def compare_sim_to_real(ranking: pd.DataFrame, real: Sequence[RealWorldResult]) 
         low = high = math.nan
         if measured.episodes:
             low, high = success_interval(round(measured.success * measured.episodes), measured.episodes)
-        rows.append({"policy": row.policy, "sim": row.success, "sim_low": row.success_low,
-                     "sim_high": row.success_high, "real": measured.success, "real_low": low, "real_high": high,
-                     "real_episodes": measured.episodes})  # fmt: skip
-    table = pd.DataFrame(rows, columns=["policy", "sim", "sim_low", "sim_high", "real", "real_low", "real_high",
-                                        "real_episodes"])  # fmt: skip
-    comparison = SimToReal(table, correlate(list(table["sim"]), list(table["real"]), "Pearson"),
-                           correlate(list(table["sim"]), list(table["real"]), "Spearman"),
-                           only_sim=[p for p in sim_policies if p not in real_by_policy],
-                           only_real=[row.policy for row in real if row.policy not in set(sim_policies)])  # fmt: skip
+        rows.append(
+            {
+                "policy": row.policy,
+                "sim": row.success,
+                "sim_low": row.success_low,
+                "sim_high": row.success_high,
+                "real": measured.success,
+                "real_low": low,
+                "real_high": high,
+                "real_episodes": measured.episodes,
+            }
+        )
+    table = pd.DataFrame(
+        rows, columns=["policy", "sim", "sim_low", "sim_high", "real", "real_low", "real_high", "real_episodes"]
+    )
+    comparison = SimToReal(
+        table,
+        correlate(list(table["sim"]), list(table["real"]), "Pearson"),
+        correlate(list(table["sim"]), list(table["real"]), "Spearman"),
+        only_sim=[p for p in sim_policies if p not in real_by_policy],
+        only_real=[row.policy for row in real if row.policy not in set(sim_policies)],
+    )
     n = len(table)
     if 3 <= n < FEW_POLICIES:
-        comparison.notes.append(f"Only {n} policies are in both: the intervals are wide, read the correlation as a "
-                                "rough check rather than a measurement.")  # fmt: skip
+        comparison.notes.append(
+            f"Only {n} policies are in both: the intervals are wide, read the correlation as a "
+            "rough check rather than a measurement."
+        )
     if comparison.only_real:
-        comparison.notes.append("In the real-world file but without simulated episodes (left out): "
-                                + ", ".join(comparison.only_real) + ".")  # fmt: skip
+        comparison.notes.append(
+            "In the real-world file but without simulated episodes (left out): " + ", ".join(comparison.only_real) + "."
+        )
     if comparison.only_sim:
         comparison.notes.append("Without a real-world result (left out): " + ", ".join(comparison.only_sim) + ".")
     return comparison
@@ -385,12 +439,21 @@ def plot_sim_to_real(comparison: SimToReal, out_dir: Path) -> list[str]:
     axes.plot([0, 100], [0, 100], linestyle="--", color="#999999", linewidth=1, label="sim = real")
     sim, real = 100 * table["sim"].to_numpy(float), 100 * table["real"].to_numpy(float)
     x_err = np.vstack([sim - 100 * table["sim_low"].to_numpy(float), 100 * table["sim_high"].to_numpy(float) - sim])
-    y_err = np.vstack([real - 100 * table["real_low"].to_numpy(float),
-                       100 * table["real_high"].to_numpy(float) - real])  # fmt: skip
+    y_err = np.vstack([real - 100 * table["real_low"].to_numpy(float), 100 * table["real_high"].to_numpy(float) - real])
     # a rate of 0 or 1 lies outside its equal-tailed Beta interval: no bar on that side (as in analyze's plots)
     x_err, y_err = x_err.clip(min=0), np.nan_to_num(y_err, nan=0.0).clip(min=0)
-    axes.errorbar(sim, real, xerr=x_err, yerr=y_err, fmt="o", color="#1f5fa8", ecolor="#8fb0d8", elinewidth=1.2,
-                  capsize=3, label="policy (95 % intervals)")  # fmt: skip
+    axes.errorbar(
+        sim,
+        real,
+        xerr=x_err,
+        yerr=y_err,
+        fmt="o",
+        color="#1f5fa8",
+        ecolor="#8fb0d8",
+        elinewidth=1.2,
+        capsize=3,
+        label="policy (95 % intervals)",
+    )
     for name, x, y in zip(table["policy"], sim, real):
         axes.annotate(name, (x, y), xytext=(5, 5), textcoords="offset points", fontsize=8, parse_math=False)
     axes.set_xlim(-3, 103)
@@ -461,8 +524,12 @@ def collect_videos(runs: RunSet, site: Path, mode: str) -> dict[tuple[str, str],
         label = f"seed {row.seed}" + (f" {row.instruction_variant}" if variants else "")
         links.setdefault((str(row.policy), str(row.task)), []).append(VideoLink(label, href, bool(row.success)))
     if missing:
-        warnings.warn(f"{len(missing)} episode video(s) missing or outside their results folder, not linked: "
-                      + ", ".join(missing[:5]) + (", ..." if len(missing) > 5 else ""), stacklevel=2)  # fmt: skip
+        warnings.warn(
+            f"{len(missing)} episode video(s) missing or outside their results folder, not linked: "
+            + ", ".join(missing[:5])
+            + (", ..." if len(missing) > 5 else ""),
+            stacklevel=2,
+        )
     return links
 
 
@@ -514,32 +581,52 @@ def build_leaderboard(runs: RunSet, real_world: Sequence[RealWorldResult] | None
 
     episodes = runs.episodes
     ranking = rank_policies(episodes)
-    tasks = (episodes.groupby("task", sort=True).first().reset_index()
-             .reindex(columns=["task", "scene", "difficulty", "axes", "attributes"]))  # fmt: skip
+    tasks = (
+        episodes.groupby("task", sort=True)
+        .first()
+        .reset_index()
+        .reindex(columns=["task", "scene", "difficulty", "axes", "attributes"])
+    )
     per_task = breakdown(episodes, "task")
-    task_rates = {(str(row.task), str(row.policy)): Rate(int(row.successes), int(row.episodes))
-                  for row in per_task[["task", "policy", "successes", "episodes"]].itertuples()}  # fmt: skip
+    task_rates = {
+        (str(row.task), str(row.policy)): Rate(int(row.successes), int(row.episodes))
+        for row in per_task[["task", "policy", "successes", "episodes"]].itertuples()
+    }
     slugs = _unique_slugs(list(tasks["task"]))
-    board = Leaderboard(ranking=ranking, axes=group_rates(episodes, "axis", ("visual", "relational", "procedural")),
-                        difficulties=group_rates(episodes, "difficulty", DIFFICULTY_ORDER), tasks=tasks,
-                        per_task=per_task, task_rates=task_rates,
-                        task_pages={task: f"{TASK_DIR}/{slugs[task]}.html" for task in tasks["task"]},
-                        runs=[str(label) for label in episodes["run"].unique()])  # fmt: skip
+    board = Leaderboard(
+        ranking=ranking,
+        axes=group_rates(episodes, "axis", ("visual", "relational", "procedural")),
+        difficulties=group_rates(episodes, "difficulty", DIFFICULTY_ORDER),
+        tasks=tasks,
+        per_task=per_task,
+        task_rates=task_rates,
+        task_pages={task: f"{TASK_DIR}/{slugs[task]}.html" for task in tasks["task"]},
+        runs=[str(label) for label in episodes["run"].unique()],
+    )
     task_sets = {str(p): frozenset(g["task"]) for p, g in episodes.groupby("policy")}
     if len(set(task_sets.values())) > 1:
         counts = ", ".join(f"{p}: {len(t)}" for p, t in sorted(task_sets.items()))
-        board.notes.append(f"The policies were not run on the same tasks ({counts} tasks), so their overall rates "
-                           "are not directly comparable; compare them per task below.")  # fmt: skip
+        board.notes.append(
+            f"The policies were not run on the same tasks ({counts} tasks), so their overall rates "
+            "are not directly comparable; compare them per task below."
+        )
     if runs.unknown_tasks:
-        board.notes.append(f"No task file describes {', '.join(runs.unknown_tasks)}: they count in the overall "
-                           "rate but in no axis or difficulty column.")  # fmt: skip
+        board.notes.append(
+            f"No task file describes {', '.join(runs.unknown_tasks)}: they count in the overall "
+            "rate but in no axis or difficulty column."
+        )
     if real_world is not None:
         board.sim_to_real = compare_sim_to_real(ranking, real_world)
     return board
 
 
-def write_site(runs: RunSet, out: str | Path, real_world: Sequence[RealWorldResult] | None = None,
-               videos: str = "copy", title: str = "RoboLab leaderboard") -> Leaderboard:
+def write_site(
+    runs: RunSet,
+    out: str | Path,
+    real_world: Sequence[RealWorldResult] | None = None,
+    videos: str = "copy",
+    title: str = "RoboLab leaderboard",
+) -> Leaderboard:
     """Write the leaderboard site and its Markdown copy into `out` (layout in the module docstring)."""
     if videos not in VIDEO_MODES:
         raise RoboLabError(f"videos mode '{videos}': give one of {', '.join(VIDEO_MODES)}")
@@ -562,15 +649,18 @@ def _prepare_site(site: Path) -> Path:
     if site.exists() and not site.is_dir():
         raise RoboLabError(f"{site}: exists and is not a folder; give a new or empty folder to --out")
     if site.is_dir() and any(site.iterdir()) and not (site / SITE_MARKER).exists():
-        raise RoboLabError(f"{site}: not empty and not a leaderboard site written by `robolab leaderboard`; give a "
-                           "new or empty folder to --out")  # fmt: skip
+        raise RoboLabError(
+            f"{site}: not empty and not a leaderboard site written by `robolab leaderboard`; give a "
+            "new or empty folder to --out"
+        )
     make_folder(site, "--out")
     for name in (TASK_DIR, VIDEO_DIR):
         shutil.rmtree(site / name, ignore_errors=True)
     for name in (INDEX_HTML, MARKDOWN, PLOT_STEM + ".png", PLOT_STEM + ".svg"):
         (site / name).unlink(missing_ok=True)
-    (site / SITE_MARKER).write_text("written by robolab leaderboard; the command may empty this folder\n",
-                                    encoding="utf-8")  # fmt: skip
+    (site / SITE_MARKER).write_text(
+        "written by robolab leaderboard; the command may empty this folder\n", encoding="utf-8"
+    )
     return site
 
 
@@ -693,17 +783,24 @@ def _rate_cell(rate: Rate | None, bar: bool = False) -> str:
         return '<td data-sort="" class="missing">-</td>'
     low, high = rate.interval
     tip = f"{rate.successes}/{rate.episodes} episodes, 95 % interval {100 * low:.1f}-{100 * high:.1f} %"
-    meter = (f'<span class="bar" aria-hidden="true"><span style="width:{100 * rate.value:.1f}%"></span></span>'
-             if bar else "")  # fmt: skip
-    return (f'<td data-sort="{_sort_key(100 * rate.value)}" title="{_esc(tip)}">{meter}{100 * rate.value:.1f} '
-            f'<span class="ci">{_interval_percent(low, high)}</span></td>')  # fmt: skip
+    meter = (
+        f'<span class="bar" aria-hidden="true"><span style="width:{100 * rate.value:.1f}%"></span></span>'
+        if bar
+        else ""
+    )
+    return (
+        f'<td data-sort="{_sort_key(100 * rate.value)}" title="{_esc(tip)}">{meter}{100 * rate.value:.1f} '
+        f'<span class="ci">{_interval_percent(low, high)}</span></td>'
+    )
 
 
 def _page(title: str, body: str) -> str:
-    return (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
-            f'<meta name="viewport" content="width=device-width, initial-scale=1">\n<title>{_esc(title)}</title>\n'
-            f"<style>{STYLE}</style>\n</head>\n<body>\n{body}\n<script>{SORT_SCRIPT}</script>\n</body>\n"
-            "</html>\n")  # fmt: skip
+    return (
+        f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        f'<meta name="viewport" content="width=device-width, initial-scale=1">\n<title>{_esc(title)}</title>\n'
+        f"<style>{STYLE}</style>\n</head>\n<body>\n{body}\n<script>{SORT_SCRIPT}</script>\n</body>\n"
+        "</html>\n"
+    )
 
 
 def _head_row(headers: Sequence[tuple[str, bool]]) -> str:
@@ -720,12 +817,14 @@ def _table(table_id: str, head: str, rows: Sequence[str], sortable: bool = True)
 
 def index_html(board: Leaderboard, title: str) -> str:
     """The site's front page."""
-    parts = [f"<header><h1>{_esc(title)}</h1>",
-             f'<p class="lead">{len(board.ranking)} policies, {len(board.tasks)} tasks, '
-             f'{int(board.ranking["episodes"].sum()) if len(board.ranking) else 0} episodes from '
-             f"{_esc(', '.join(board.runs))}. "
-             f'<a href="{MARKDOWN}">Markdown version</a>.</p></header>',
-             f'<p class="rule">{_esc(RANKING_RULE)} Click a column header to sort by it.</p>']  # fmt: skip
+    parts = [
+        f"<header><h1>{_esc(title)}</h1>",
+        f'<p class="lead">{len(board.ranking)} policies, {len(board.tasks)} tasks, '
+        f"{int(board.ranking['episodes'].sum()) if len(board.ranking) else 0} episodes from "
+        f"{_esc(', '.join(board.runs))}. "
+        f'<a href="{MARKDOWN}">Markdown version</a>.</p></header>',
+        f'<p class="rule">{_esc(RANKING_RULE)} Click a column header to sort by it.</p>',
+    ]
     parts += [f'<p class="note">{_esc(note)}</p>' for note in board.notes]
     headers = [("Rank", False), ("Policy", True), ("Success %", False)]
     headers += [(value.capitalize(), False) for value in board.axes]
@@ -733,15 +832,19 @@ def index_html(board: Leaderboard, title: str) -> str:
     headers += [("Score", False), ("Score(fail)", False), ("Episodes", False), ("Tasks", False)]
     rows = []
     for row in board.ranking.itertuples(index=False):
-        cells = [f'<td data-sort="{row.rank}">{row.rank}</td>', f'<td class="name">{_esc(row.policy)}</td>',
-                 _rate_cell(Rate(row.successes, row.episodes), bar=True)]  # fmt: skip
+        cells = [
+            f'<td data-sort="{row.rank}">{row.rank}</td>',
+            f'<td class="name">{_esc(row.policy)}</td>',
+            _rate_cell(Rate(row.successes, row.episodes), bar=True),
+        ]
         cells += [_rate_cell(rates.get(row.policy)) for rates in board.axes.values()]
         cells += [_rate_cell(rates.get(row.policy)) for rates in board.difficulties.values()]
-        cells += [_num_cell(row.score), _num_cell(row.score_fail), _num_cell(row.episodes, 0),
-                  _num_cell(row.tasks, 0)]  # fmt: skip
+        cells += [_num_cell(row.score), _num_cell(row.score_fail), _num_cell(row.episodes, 0), _num_cell(row.tasks, 0)]
         rows.append(f"<tr>{''.join(cells)}</tr>")
-    parts.append('<h2>Policies</h2>\n<p class="lead">Success % per competency axis (columns after Success %) and '
-                 'per difficulty, with the 95 % interval in brackets.</p>')  # fmt: skip
+    parts.append(
+        '<h2>Policies</h2>\n<p class="lead">Success % per competency axis (columns after Success %) and '
+        "per difficulty, with the 95 % interval in brackets.</p>"
+    )
     parts.append(_table("ranking", _head_row(headers), rows))
     parts.append(_task_matrix_html(board))
     if board.sim_to_real is not None:
@@ -755,14 +858,17 @@ def _task_matrix_html(board: Leaderboard) -> str:
     headers = [("Task", True), ("Difficulty", True), ("Axes", True)] + [(p, False) for p in policies]
     rows = []
     for task in board.tasks.itertuples(index=False):
-        cells = [f'<td class="text"><a href="{_href(board.task_pages[task.task])}">{_esc(task.task)}</a></td>',
-                 f'<td class="text">{_esc(_text(task.difficulty))}</td>',
-                 f'<td class="text">{_esc(_text(task.axes).replace(";", ", "))}</td>']  # fmt: skip
+        cells = [
+            f'<td class="text"><a href="{_href(board.task_pages[task.task])}">{_esc(task.task)}</a></td>',
+            f'<td class="text">{_esc(_text(task.difficulty))}</td>',
+            f'<td class="text">{_esc(_text(task.axes).replace(";", ", "))}</td>',
+        ]
         cells += [_rate_cell(board.task_rates.get((task.task, policy))) for policy in policies]
         rows.append(f"<tr>{''.join(cells)}</tr>")
-    return ('<h2>Tasks</h2>\n<p class="lead">Success % per task and policy; a task\'s page has its scores, times, '
-            'trajectory metrics and videos.</p>\n'
-            + _table("tasks", _head_row(headers), rows))  # fmt: skip
+    return (
+        '<h2>Tasks</h2>\n<p class="lead">Success % per task and policy; a task\'s page has its scores, times, '
+        "trajectory metrics and videos.</p>\n" + _table("tasks", _head_row(headers), rows)
+    )
 
 
 def _text(value: object) -> str:
@@ -779,25 +885,44 @@ def _correlation_rows(comparison: SimToReal) -> list[list[str]]:
     rows = []
     for corr in (comparison.pearson, comparison.spearman):
         name = f"{corr.method} {'rho' if corr.method == 'Spearman' else 'r'}"
-        rows.append([name, str(corr.n), "-" if corr.r is None else f"{corr.r:+.2f}", _interval_text(corr.fisher),
-                     _interval_text(corr.bootstrap), "-" if corr.p_value is None else f"{corr.p_value:.3g}",
-                     corr.note])  # fmt: skip
+        rows.append(
+            [
+                name,
+                str(corr.n),
+                "-" if corr.r is None else f"{corr.r:+.2f}",
+                _interval_text(corr.fisher),
+                _interval_text(corr.bootstrap),
+                "-" if corr.p_value is None else f"{corr.p_value:.3g}",
+                corr.note,
+            ]
+        )
     return rows
 
 
-CORRELATION_HEADERS = ("Correlation", "Policies", "Value", "95 % interval (Fisher z)", "95 % interval (bootstrap)",
-                       "p", "Note")  # fmt: skip
+CORRELATION_HEADERS = (
+    "Correlation",
+    "Policies",
+    "Value",
+    "95 % interval (Fisher z)",
+    "95 % interval (bootstrap)",
+    "p",
+    "Note",
+)
 
 
 def _sim_to_real_html(comparison: SimToReal) -> str:
-    parts = ['<h2 id="sim-to-real">Sim to real</h2>',
-             '<p class="lead">Overall simulated success against the success measured on the real robot, for the '
-             "policies in both. Fisher z intervals use 1/sqrt(n-3) (Pearson) and sqrt(1.06/(n-3)) (Spearman); the "
-             "bootstrap resamples policies.</p>"]  # fmt: skip
+    parts = [
+        '<h2 id="sim-to-real">Sim to real</h2>',
+        '<p class="lead">Overall simulated success against the success measured on the real robot, for the '
+        "policies in both. Fisher z intervals use 1/sqrt(n-3) (Pearson) and sqrt(1.06/(n-3)) (Spearman); the "
+        "bootstrap resamples policies.</p>",
+    ]
     parts += [f'<p class="note">{_esc(note)}</p>' for note in comparison.notes]
     head = _head_row([(h, i in (0, 6)) for i, h in enumerate(CORRELATION_HEADERS)])
-    body = "".join("<tr>" + "".join(f'<td{TEXT_CLASS if i in (0, 6) else ""}>{_esc(v)}</td>' for i, v in enumerate(row))
-                   + "</tr>" for row in _correlation_rows(comparison))  # fmt: skip
+    body = "".join(
+        "<tr>" + "".join(f"<td{TEXT_CLASS if i in (0, 6) else ''}>{_esc(v)}</td>" for i, v in enumerate(row)) + "</tr>"
+        for row in _correlation_rows(comparison)
+    )
     parts.append(_table("correlation", head, [body], sortable=False))
     rows = []
     for row in comparison.table.itertuples(index=False):
@@ -805,53 +930,88 @@ def _sim_to_real_html(comparison: SimToReal) -> str:
         known = isinstance(trials, (int, float)) and not math.isnan(trials)
         real_rate = Rate(round(row.real * trials), int(trials)) if known else None
         real_cell = _rate_cell(real_rate) if real_rate else _num_cell(100 * row.real, 1)
-        rows.append(f'<tr><td class="name">{_esc(row.policy)}</td>'
-                    f'<td data-sort="{_sort_key(100 * row.sim)}">{100 * row.sim:.1f} <span class="ci">'
-                    f"{_interval_percent(row.sim_low, row.sim_high)}</span></td>{real_cell}</tr>")  # fmt: skip
+        rows.append(
+            f'<tr><td class="name">{_esc(row.policy)}</td>'
+            f'<td data-sort="{_sort_key(100 * row.sim)}">{100 * row.sim:.1f} <span class="ci">'
+            f"{_interval_percent(row.sim_low, row.sim_high)}</span></td>{real_cell}</tr>"
+        )
     head = _head_row([("Policy", True), ("Sim success %", False), ("Real success %", False)])
     parts.append(_table("sim-real", head, rows))
     if comparison.plot_files:
         png = next(name for name in comparison.plot_files if name.endswith(".png"))
         svg = next((name for name in comparison.plot_files if name.endswith(".svg")), png)
-        parts.append(f'<p><a href="{_href(svg)}"><img class="plot" src="{_href(png)}" alt="real against simulated '
-                     'success, one point per policy"></a></p>')  # fmt: skip
+        parts.append(
+            f'<p><a href="{_href(svg)}"><img class="plot" src="{_href(png)}" alt="real against simulated '
+            'success, one point per policy"></a></p>'
+        )
     return "\n".join(parts)
 
 
-def task_html(board: Leaderboard, task: str, episodes: pd.DataFrame,
-              links: dict[tuple[str, str], list[VideoLink]], title: str) -> str:
+def task_html(
+    board: Leaderboard, task: str, episodes: pd.DataFrame, links: dict[tuple[str, str], list[VideoLink]], title: str
+) -> str:
     """One task's page: what it asks, and per policy its outcome, times, trajectory metrics and videos."""
     info = board.tasks.set_index("task").loc[task]
-    instructions = (episodes.drop_duplicates("instruction_variant").sort_values("instruction_variant")
-                    [["instruction_variant", "instruction"]])  # fmt: skip
-    facts = [("Scene", _text(info["scene"])), ("Difficulty", _text(info["difficulty"])),
-             ("Axes", _text(info["axes"]).replace(";", ", ")),
-             ("Attributes", _text(info["attributes"]).replace(";", ", "))]  # fmt: skip
+    instructions = episodes.drop_duplicates("instruction_variant").sort_values("instruction_variant")[
+        ["instruction_variant", "instruction"]
+    ]
+    facts = [
+        ("Scene", _text(info["scene"])),
+        ("Difficulty", _text(info["difficulty"])),
+        ("Axes", _text(info["axes"]).replace(";", ", ")),
+        ("Attributes", _text(info["attributes"]).replace(";", ", ")),
+    ]
     facts += [(f"Instruction ({variant})", _text(text)) for variant, text in instructions.itertuples(index=False)]
-    parts = [f'<p><a href="../{INDEX_HTML}">&larr; {_esc(title)}</a></p>', f"<h1>{_esc(task)}</h1>",
-             '<dl class="facts">' + "".join(f"<dt>{_esc(k)}</dt><dd>{_esc(v) or '-'}</dd>" for k, v in facts)
-             + "</dl>"]  # fmt: skip
+    parts = [
+        f'<p><a href="../{INDEX_HTML}">&larr; {_esc(title)}</a></p>',
+        f"<h1>{_esc(task)}</h1>",
+        '<dl class="facts">' + "".join(f"<dt>{_esc(k)}</dt><dd>{_esc(v) or '-'}</dd>" for k, v in facts) + "</dl>",
+    ]
     table = task_policy_table(board.per_task, task, list(board.ranking["policy"]))
     rank_of = dict(zip(board.ranking["policy"], board.ranking["rank"]))
-    headers = [("Rank", False), ("Policy", True), ("Success %", False), ("Score", False), ("Score(fail)", False),
-               ("Time to success (s)", False), ("SPARC", False), ("Path (cm)", False), ("Speed (cm/s)", False),
-               ("Episodes", False), ("Videos", True)]  # fmt: skip
+    headers = [
+        ("Rank", False),
+        ("Policy", True),
+        ("Success %", False),
+        ("Score", False),
+        ("Score(fail)", False),
+        ("Time to success (s)", False),
+        ("SPARC", False),
+        ("Path (cm)", False),
+        ("Speed (cm/s)", False),
+        ("Episodes", False),
+        ("Videos", True),
+    ]
     rows = []
     for row in table.itertuples(index=False):
         videos = links.get((row.policy, task), [])
-        video_cell = " ".join(f'<a class="{"ok" if v.success else "fail"}" href="../{_href(v.href)}">{_esc(v.label)}'
-                              "</a>" for v in videos) or '<span class="missing">none</span>'  # fmt: skip
-        cells = [f'<td data-sort="{rank_of[row.policy]}">{rank_of[row.policy]}</td>',
-                 f'<td class="name">{_esc(row.policy)}</td>', _rate_cell(Rate(row.successes, row.episodes), bar=True),
-                 _num_cell(row.score), _num_cell(row.score_fail), _num_cell(row.time_to_success_s, 1),
-                 _num_cell(row.ee_sparc), _num_cell(row.ee_path_cm, 1), _num_cell(row.ee_speed_mean_cm_s, 1),
-                 _num_cell(row.episodes, 0),
-                 f'<td class="text videos" data-sort="{len(videos)}">{video_cell}</td>']  # fmt: skip
+        video_cell = (
+            " ".join(
+                f'<a class="{"ok" if v.success else "fail"}" href="../{_href(v.href)}">{_esc(v.label)}</a>'
+                for v in videos
+            )
+            or '<span class="missing">none</span>'
+        )
+        cells = [
+            f'<td data-sort="{rank_of[row.policy]}">{rank_of[row.policy]}</td>',
+            f'<td class="name">{_esc(row.policy)}</td>',
+            _rate_cell(Rate(row.successes, row.episodes), bar=True),
+            _num_cell(row.score),
+            _num_cell(row.score_fail),
+            _num_cell(row.time_to_success_s, 1),
+            _num_cell(row.ee_sparc),
+            _num_cell(row.ee_path_cm, 1),
+            _num_cell(row.ee_speed_mean_cm_s, 1),
+            _num_cell(row.episodes, 0),
+            f'<td class="text videos" data-sort="{len(videos)}">{video_cell}</td>',
+        ]
         rows.append(f"<tr>{''.join(cells)}</tr>")
     parts.append(_table("policies", _head_row(headers), rows))
-    parts.append("<footer><p>Time to success: mean over the successful episodes. SPARC (smoothness, closer to 0 is "
-                 "smoother), path length and mean speed of the gripper: mean over the episodes. "
-                 f"{_esc(INTERVAL_NOTE)}</p></footer>")  # fmt: skip
+    parts.append(
+        "<footer><p>Time to success: mean over the successful episodes. SPARC (smoothness, closer to 0 is "
+        "smoother), path length and mean speed of the gripper: mean over the episodes. "
+        f"{_esc(INTERVAL_NOTE)}</p></footer>"
+    )
     return _page(f"{task} - {title}", "\n".join(parts))
 
 
@@ -877,11 +1037,15 @@ def _md_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def leaderboard_markdown(board: Leaderboard, episodes: pd.DataFrame, links: dict[tuple[str, str], list[VideoLink]],
-                         title: str) -> str:
+def leaderboard_markdown(
+    board: Leaderboard, episodes: pd.DataFrame, links: dict[tuple[str, str], list[VideoLink]], title: str
+) -> str:
     """The leaderboard as one Markdown document: ranking, tasks, per-task tables and sim to real."""
-    parts = [f"# {_md(title)}\n\n", f"{len(board.ranking)} policies, {len(board.tasks)} tasks, from "
-             f"{_md(', '.join(board.runs))}. {RANKING_RULE} {INTERVAL_NOTE}\n"]  # fmt: skip
+    parts = [
+        f"# {_md(title)}\n\n",
+        f"{len(board.ranking)} policies, {len(board.tasks)} tasks, from "
+        f"{_md(', '.join(board.runs))}. {RANKING_RULE} {INTERVAL_NOTE}\n",
+    ]
     parts += [f"\n> {_md(note)}\n" for note in board.notes]
     headers = ["Rank", "Policy", "Success %"] + [v.capitalize() for v in board.axes]
     headers += [v.capitalize() for v in board.difficulties] + ["Score", "Score(fail)", "Episodes", "Tasks"]
@@ -894,31 +1058,60 @@ def leaderboard_markdown(board: Leaderboard, episodes: pd.DataFrame, links: dict
         rows.append(cells)
     parts += ["\n## Policies\n\n", _md_table(headers, rows)]
     policies = list(board.ranking["policy"])
-    rows = [[_md(t.task), _md(_text(t.difficulty)), _md(_text(t.axes).replace(";", ", "))]
-            + [_md_rate(board.task_rates.get((t.task, p))) for p in policies]
-            for t in board.tasks.itertuples()]  # fmt: skip
+    rows = [
+        [_md(t.task), _md(_text(t.difficulty)), _md(_text(t.axes).replace(";", ", "))]
+        + [_md_rate(board.task_rates.get((t.task, p))) for p in policies]
+        for t in board.tasks.itertuples()
+    ]
     task_headers = ["Task", "Difficulty", "Axes", *(_md(policy) for policy in policies)]
     parts += ["\n## Tasks (success %)\n\n", _md_table(task_headers, rows)]
-    headers = ["Policy", "Success %", "Score", "Score(fail)", "Time to success (s)", "SPARC", "Path (cm)",
-               "Speed (cm/s)", "Episodes", "Videos"]  # fmt: skip
-    for task, group in episodes.groupby("task", sort=True):
+    headers = [
+        "Policy",
+        "Success %",
+        "Score",
+        "Score(fail)",
+        "Time to success (s)",
+        "SPARC",
+        "Path (cm)",
+        "Speed (cm/s)",
+        "Episodes",
+        "Videos",
+    ]
+    for task, _episodes_of_task in episodes.groupby("task", sort=True):
         table = task_policy_table(board.per_task, task, policies)
         rows = []
         for row in table.itertuples(index=False):
-            videos = " ".join(f"[{_md(v.label)}{' ✓' if v.success else ''}]({quote(v.href, safe='/._-~')})"
-                              for v in links.get((row.policy, str(task)), [])) or "-"  # fmt: skip
-            rows.append([_md(row.policy), _md_rate(Rate(row.successes, row.episodes)), _number(row.score),
-                         _number(row.score_fail), _number(row.time_to_success_s, 1), _number(row.ee_sparc),
-                         _number(row.ee_path_cm, 1), _number(row.ee_speed_mean_cm_s, 1), str(row.episodes),
-                         videos])  # fmt: skip
+            videos = (
+                " ".join(
+                    f"[{_md(v.label)}{' ✓' if v.success else ''}]({quote(v.href, safe='/._-~')})"
+                    for v in links.get((row.policy, str(task)), [])
+                )
+                or "-"
+            )
+            rows.append(
+                [
+                    _md(row.policy),
+                    _md_rate(Rate(row.successes, row.episodes)),
+                    _number(row.score),
+                    _number(row.score_fail),
+                    _number(row.time_to_success_s, 1),
+                    _number(row.ee_sparc),
+                    _number(row.ee_path_cm, 1),
+                    _number(row.ee_speed_mean_cm_s, 1),
+                    str(row.episodes),
+                    videos,
+                ]
+            )
         parts += [f"\n### {_md(task)}\n\n", _md_table(headers, rows)]
     if board.sim_to_real is not None:
         comparison = board.sim_to_real
         parts.append("\n## Sim to real\n\n")
         parts += [f"> {_md(note)}\n\n" for note in comparison.notes]
         parts.append(_md_table(CORRELATION_HEADERS, [[_md(v) for v in row] for row in _correlation_rows(comparison)]))
-        rows = [[_md(r.policy), f"{100 * r.sim:.1f} {_interval_percent(r.sim_low, r.sim_high)}",
-                 f"{100 * r.real:.1f}"] for r in comparison.table.itertuples(index=False)]  # fmt: skip
+        rows = [
+            [_md(r.policy), f"{100 * r.sim:.1f} {_interval_percent(r.sim_low, r.sim_high)}", f"{100 * r.real:.1f}"]
+            for r in comparison.table.itertuples(index=False)
+        ]
         parts += ["\n", _md_table(["Policy", "Sim success %", "Real success %"], rows)]
         if comparison.plot_files:
             parts.append(f"\n![real against simulated success]({PLOT_STEM}.png)\n")
@@ -930,15 +1123,26 @@ def leaderboard_markdown(board: Leaderboard, episodes: pd.DataFrame, links: dict
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="results folders written by `robolab eval --out`")
-    parser.add_argument("--out", required=True, metavar="SITE_DIR",
-                        help="folder for the site (index.html, tasks/, leaderboard.md); new, empty, or an earlier "
-                        "leaderboard site (rewritten)")  # fmt: skip
-    parser.add_argument("--real-world", metavar="FILE.csv",
-                        help="real-robot success per policy (columns policy, success; optional episodes): adds the "
-                        "sim-to-real comparison (Pearson and Spearman with intervals, scatter plot)")  # fmt: skip
-    parser.add_argument("--videos", choices=VIDEO_MODES, default="copy",
-                        help="episode videos: copy them into the site (default; the folder works when moved), link "
-                        "to them in the results folders (relative links), or leave them out")  # fmt: skip
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="SITE_DIR",
+        help="folder for the site (index.html, tasks/, leaderboard.md); new, empty, or an earlier "
+        "leaderboard site (rewritten)",
+    )
+    parser.add_argument(
+        "--real-world",
+        metavar="FILE.csv",
+        help="real-robot success per policy (columns policy, success; optional episodes): adds the "
+        "sim-to-real comparison (Pearson and Spearman with intervals, scatter plot)",
+    )
+    parser.add_argument(
+        "--videos",
+        choices=VIDEO_MODES,
+        default="copy",
+        help="episode videos: copy them into the site (default; the folder works when moved), link "
+        "to them in the results folders (relative links), or leave them out",
+    )
     parser.add_argument("--title", default="RoboLab leaderboard", help="the site's title")
 
 
@@ -951,13 +1155,20 @@ def run(args: argparse.Namespace) -> int:
     board = write_site(runs, args.out, real_world, args.videos, args.title)
     site = Path(args.out)
     headers = ["Rank", "Policy", "Success %", "Score", "Episodes"]
-    rows = [[str(r.rank), r.policy, _md_rate(Rate(r.successes, r.episodes)), _number(r.score), str(r.episodes)]
-            for r in board.ranking.itertuples(index=False)]  # fmt: skip
+    rows = [
+        [str(r.rank), r.policy, _md_rate(Rate(r.successes, r.episodes)), _number(r.score), str(r.episodes)]
+        for r in board.ranking.itertuples(index=False)
+    ]
     print(_md_table(headers, rows), end="")
     if board.sim_to_real is not None:
         for corr in (board.sim_to_real.pearson, board.sim_to_real.spearman):
-            value = "-" if corr.r is None else (f"{corr.r:+.2f} (Fisher {_interval_text(corr.fisher)}, "
-                                                f"bootstrap {_interval_text(corr.bootstrap)})")
+            value = (
+                "-"
+                if corr.r is None
+                else (
+                    f"{corr.r:+.2f} (Fisher {_interval_text(corr.fisher)}, bootstrap {_interval_text(corr.bootstrap)})"
+                )
+            )
             note = f"; {corr.note}" if corr.note else ""
             print(f"sim to real, {corr.method} over {corr.n} policies: {value}{note}")
     print(f"wrote {site / INDEX_HTML}, {len(board.task_pages)} task pages and {site / MARKDOWN}")

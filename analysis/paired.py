@@ -50,8 +50,10 @@ def resolve_pair(episodes: pd.DataFrame, names: Sequence[str]) -> tuple[str, str
     if not names and len(policies) == 2:
         return policies[0], policies[1]
     if not names:
-        raise RoboLabError(f"--compare without names needs exactly two policies; these runs hold {len(policies)} "
-                           f"({', '.join(policies)}): give two, e.g. --compare {' '.join(policies[:2])}")  # fmt: skip
+        raise RoboLabError(
+            f"--compare without names needs exactly two policies; these runs hold {len(policies)} "
+            f"({', '.join(policies)}): give two, e.g. --compare {' '.join(policies[:2])}"
+        )
     raise RoboLabError(f"--compare takes two policy names, got {len(names)}: {' '.join(names)}")
 
 
@@ -75,19 +77,23 @@ def pair_outcomes(episodes: pd.DataFrame, a: str, b: str) -> tuple[pd.DataFrame,
             raise RoboLabError(
                 f"--compare {a} {b}: {a} ran in {', '.join(simulators[a])} and {b} in {', '.join(simulators[b])}; "
                 "the same seed does not start the same scene in two simulators, so their episodes do not pair. "
-                "Compare them side by side instead: robolab analyze ... --by task,simulator")  # fmt: skip
-    pairs = first[MATCH_KEYS + ["success"]].merge(second[MATCH_KEYS + ["success"]], on=MATCH_KEYS,
-                                                   suffixes=("_a", "_b"))  # fmt: skip
+                "Compare them side by side instead: robolab analyze ... --by task,simulator"
+            )
+    pairs = first[MATCH_KEYS + ["success"]].merge(
+        second[MATCH_KEYS + ["success"]], on=MATCH_KEYS, suffixes=("_a", "_b")
+    )
     if pairs.empty:
         raise RoboLabError(
             f"--compare {a} {b}: no episode of {a} has a partner of {b} with the same task, instruction variant, "
             f"robot and seed ({a}: {_describe(first)}; {b}: {_describe(second)}); run both on the same tasks and "
-            "seeds, e.g. `robolab eval --policy P --task ... --episodes N --seed 0` for each")  # fmt: skip
+            "seeds, e.g. `robolab eval --policy P --task ... --episodes N --seed 0` for each"
+        )
     return pairs, len(first) - len(pairs), len(second) - len(pairs)
 
 
-def compare_policies(episodes: pd.DataFrame, a: str, b: str, level: float = 0.95, resamples: int = 2000,
-                     seed: int = 0) -> PairedComparison:  # fmt: skip
+def compare_policies(
+    episodes: pd.DataFrame, a: str, b: str, level: float = 0.95, resamples: int = 2000, seed: int = 0
+) -> PairedComparison:
     """Per-task and overall differences A - B in success rate on matched episodes (see the module docstring)."""
     if resamples < 100:
         raise RoboLabError(f"--resamples {resamples}: give at least 100 (2000 is the default)")
@@ -100,12 +106,21 @@ def compare_policies(episodes: pd.DataFrame, a: str, b: str, level: float = 0.95
     differences = per_task["difference_%"].to_numpy() / 100.0
     low, high = bootstrap_mean_interval(differences, level, resamples, seed)
     overall = {
-        "a": a, "b": b, "pairs": int(per_task["pairs"].sum()), "tasks": len(per_task),
-        "a_success_%": float(per_task["a_success_%"].mean()), "b_success_%": float(per_task["b_success_%"].mean()),
+        "a": a,
+        "b": b,
+        "pairs": int(per_task["pairs"].sum()),
+        "tasks": len(per_task),
+        "a_success_%": float(per_task["a_success_%"].mean()),
+        "b_success_%": float(per_task["b_success_%"].mean()),
         "difference_%": 100.0 * float(differences.mean()),
-        "ci_low_%": 100.0 * low, "ci_high_%": 100.0 * high, "level": level, "resamples": resamples, "seed": seed,
-        "unmatched_a": unmatched_a, "unmatched_b": unmatched_b,
-    }  # fmt: skip
+        "ci_low_%": 100.0 * low,
+        "ci_high_%": 100.0 * high,
+        "level": level,
+        "resamples": resamples,
+        "seed": seed,
+        "unmatched_a": unmatched_a,
+        "unmatched_b": unmatched_b,
+    }
     for side, name in (("a", a), ("b", b)):
         won = per_task["winner"] == name
         overall[f"{side}_wins"] = int(won.sum())
@@ -119,17 +134,31 @@ def paired_task_table(pairs: pd.DataFrame, level: float = 0.95) -> pd.DataFrame:
     """One row per task of matched pairs: pairs, the four outcome counts, both success rates, the difference
     with its interval, the exact McNemar p-value and its Holm-adjusted value over the tasks."""
     a, b = pairs["success_a"].astype(bool), pairs["success_b"].astype(bool)
-    counts = pd.DataFrame({"task": pairs["task"], "both": a & b, "a_only": a & ~b, "b_only": ~a & b,
-                           "neither": ~a & ~b}).groupby("task", sort=True).sum().astype(int)  # fmt: skip
+    counts = (
+        pd.DataFrame({"task": pairs["task"], "both": a & b, "a_only": a & ~b, "b_only": ~a & b, "neither": ~a & ~b})
+        .groupby("task", sort=True)
+        .sum()
+        .astype(int)
+    )
     both, a_only, b_only, neither = (counts[c].to_numpy() for c in ("both", "a_only", "b_only", "neither"))
     total = both + a_only + b_only + neither
     low, high = paired_difference_interval(both, a_only, b_only, neither, level)
-    table = pd.DataFrame({
-        "task": counts.index, "pairs": total, "a_success_%": 100.0 * (both + a_only) / total,
-        "b_success_%": 100.0 * (both + b_only) / total, "difference_%": 100.0 * (a_only - b_only) / total,
-        "ci_low_%": 100.0 * low, "ci_high_%": 100.0 * high, "both": both, "a_only": a_only, "b_only": b_only,
-        "neither": neither, "p_mcnemar": mcnemar_exact(a_only, b_only),
-    })  # fmt: skip
+    table = pd.DataFrame(
+        {
+            "task": counts.index,
+            "pairs": total,
+            "a_success_%": 100.0 * (both + a_only) / total,
+            "b_success_%": 100.0 * (both + b_only) / total,
+            "difference_%": 100.0 * (a_only - b_only) / total,
+            "ci_low_%": 100.0 * low,
+            "ci_high_%": 100.0 * high,
+            "both": both,
+            "a_only": a_only,
+            "b_only": b_only,
+            "neither": neither,
+            "p_mcnemar": mcnemar_exact(a_only, b_only),
+        }
+    )
     table["p_holm"] = holm_adjusted(table["p_mcnemar"].to_numpy())
     return table.reset_index(drop=True)
 
@@ -161,8 +190,9 @@ def wilson_interval(successes: np.ndarray, n: np.ndarray, level: float = 0.95) -
     return centre - half, centre + half
 
 
-def paired_difference_interval(both: np.ndarray, a_only: np.ndarray, b_only: np.ndarray, neither: np.ndarray,
-                               level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def paired_difference_interval(
+    both: np.ndarray, a_only: np.ndarray, b_only: np.ndarray, neither: np.ndarray, level: float = 0.95
+) -> tuple[np.ndarray, np.ndarray]:
     """Interval for p_A - p_B from paired binary outcomes (Newcombe 1998, method 10), vectorised over tasks."""
     both, a_only, b_only, neither = (np.asarray(x, dtype=float) for x in (both, a_only, b_only, neither))
     n = both + a_only + b_only + neither
@@ -171,16 +201,23 @@ def paired_difference_interval(both: np.ndarray, a_only: np.ndarray, b_only: np.
     low_b, high_b = wilson_interval(both + b_only, n, level)
     spread = (both + a_only) * (b_only + neither) * (both + b_only) * (a_only + neither)
     correlation = np.where(spread > 0, (both * neither - a_only * b_only) / np.sqrt(np.maximum(spread, 1.0)), 0.0)
-    below = np.sqrt(np.maximum(0.0, (rate_a - low_a) ** 2 - 2 * correlation * (rate_a - low_a) * (high_b - rate_b)
-                               + (high_b - rate_b) ** 2))  # fmt: skip
-    above = np.sqrt(np.maximum(0.0, (high_a - rate_a) ** 2 - 2 * correlation * (high_a - rate_a) * (rate_b - low_b)
-                               + (rate_b - low_b) ** 2))  # fmt: skip
+    below = np.sqrt(
+        np.maximum(
+            0.0, (rate_a - low_a) ** 2 - 2 * correlation * (rate_a - low_a) * (high_b - rate_b) + (high_b - rate_b) ** 2
+        )
+    )
+    above = np.sqrt(
+        np.maximum(
+            0.0, (high_a - rate_a) ** 2 - 2 * correlation * (high_a - rate_a) * (rate_b - low_b) + (rate_b - low_b) ** 2
+        )
+    )
     difference = rate_a - rate_b
     return np.maximum(-1.0, difference - below), np.minimum(1.0, difference + above)
 
 
-def bootstrap_mean_interval(values: np.ndarray, level: float = 0.95, resamples: int = 2000,
-                            seed: int = 0) -> tuple[float, float]:  # fmt: skip
+def bootstrap_mean_interval(
+    values: np.ndarray, level: float = 0.95, resamples: int = 2000, seed: int = 0
+) -> tuple[float, float]:
     """Bootstrap interval of the mean of `values` (one per task), resampling them with replacement: the expanded
     percentile interval (Hesterberg 2015), whose quantiles sit further out, by the factor
     sqrt(n / (n - 1)) t(n - 1) / z, so that few tasks do not give a too narrow interval; many tasks give nearly
@@ -215,16 +252,18 @@ def comparison_markdown(comparison: PairedComparison) -> str:
         f"| task | pairs | {a} % | {b} % | difference [{percent} % CI] | {a} only | {b} only | p McNemar | p Holm | "
         "winner |",
         "|---|--:|--:|--:|--:|--:|--:|--:|--:|---|",
-    ]  # fmt: skip
+    ]
     for _, row in comparison.per_task.iterrows():
         mark = "*" if row["significant"] else ""
         lines.append(
             f"| {row['task']} | {row['pairs']} | {row['a_success_%']:.0f} | {row['b_success_%']:.0f} | "
             f"{row['difference_%']:+.0f} [{row['ci_low_%']:+.0f}, {row['ci_high_%']:+.0f}] | {row['a_only']} | "
             f"{row['b_only']} | {row['p_mcnemar']:.3g} | {row['p_holm']:.3g} | {row['winner']}{mark} |"
-        )  # fmt: skip
-    lines.append(f"\n\\* significant at {alpha:g} before correction. Difference interval per task: Newcombe's "
-                 "hybrid score interval for paired proportions.\n")  # fmt: skip
+        )
+    lines.append(
+        f"\n\\* significant at {alpha:g} before correction. Difference interval per task: Newcombe's "
+        "hybrid score interval for paired proportions.\n"
+    )
     return "\n".join(lines) + "\n"
 
 
@@ -232,5 +271,7 @@ def _describe(frame: pd.DataFrame) -> str:
     tasks = sorted(frame["task"].unique())
     seeds = sorted(frame["seed"].unique())
     shown = ", ".join(tasks[:3]) + (", ..." if len(tasks) > 3 else "")
-    return (f"{len(frame)} episodes, tasks {shown}, variants {', '.join(sorted(frame['instruction_variant'].unique()))}"
-            f", robots {', '.join(sorted(frame['robot'].unique()))}, seeds {seeds[0]}..{seeds[-1]}")  # fmt: skip
+    return (
+        f"{len(frame)} episodes, tasks {shown}, variants {', '.join(sorted(frame['instruction_variant'].unique()))}"
+        f", robots {', '.join(sorted(frame['robot'].unique()))}, seeds {seeds[0]}..{seeds[-1]}"
+    )

@@ -31,9 +31,16 @@ def _pyplot():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    plt.rcParams.update({"font.size": 9, "axes.titlesize": 10, "axes.spines.top": False,
-                         "axes.spines.right": False, "svg.fonttype": "none",
-                         "text.parse_math": False})  # fmt: skip
+    plt.rcParams.update(
+        {
+            "font.size": 9,
+            "axes.titlesize": 10,
+            "axes.spines.top": False,
+            "axes.spines.right": False,
+            "svg.fonttype": "none",
+            "text.parse_math": False,
+        }
+    )
     return plt
 
 
@@ -57,8 +64,9 @@ def save(figure, stem: Path) -> list[Path]:
 
 def _interval_errors(table: pd.DataFrame) -> np.ndarray:
     """Error bar lengths (below, above) of success % from its interval columns."""
-    return np.vstack([table["success_%"] - table["success_ci95_low_%"],
-                      table["success_ci95_high_%"] - table["success_%"]]).clip(min=0)  # fmt: skip
+    return np.vstack(
+        [table["success_%"] - table["success_ci95_low_%"], table["success_ci95_high_%"] - table["success_%"]]
+    ).clip(min=0)
 
 
 def _dodge(count: int, width: float = 0.7) -> np.ndarray:
@@ -81,14 +89,32 @@ def success_by_group(table: pd.DataFrame, group: str, stem: Path, title: str) ->
     for offset, policy in zip(offsets, policies):
         rows = table[table["policy"] == policy].set_index(group).reindex(categories).dropna(subset=["success_%"])
         x = np.array([categories.index(c) for c in rows.index]) + offset
-        axes.errorbar(x, rows["success_%"], yerr=_interval_errors(rows), fmt="o", capsize=3, markersize=5,
-                      color=colours[policy], label=policy)  # fmt: skip
+        axes.errorbar(
+            x,
+            rows["success_%"],
+            yerr=_interval_errors(rows),
+            fmt="o",
+            capsize=3,
+            markersize=5,
+            color=colours[policy],
+            label=policy,
+        )
         for xi, (_, row) in zip(x, rows.iterrows()):
-            axes.annotate(f"n={int(row['episodes'])}", (xi, row["success_ci95_low_%"]), textcoords="offset points",
-                          xytext=(0, -10), ha="center", fontsize=6.5, color="0.4")  # fmt: skip
-    axes.set_xticks(range(len(categories)), [str(c) for c in categories],
-                    rotation=30 if max(len(str(c)) for c in categories) > 10 else 0, ha="right" if max(
-                        len(str(c)) for c in categories) > 10 else "center")  # fmt: skip
+            axes.annotate(
+                f"n={int(row['episodes'])}",
+                (xi, row["success_ci95_low_%"]),
+                textcoords="offset points",
+                xytext=(0, -10),
+                ha="center",
+                fontsize=6.5,
+                color="0.4",
+            )
+    axes.set_xticks(
+        range(len(categories)),
+        [str(c) for c in categories],
+        rotation=30 if max(len(str(c)) for c in categories) > 10 else 0,
+        ha="right" if max(len(str(c)) for c in categories) > 10 else "center",
+    )
     axes.set_xlim(-0.6, len(categories) - 0.4)
     axes.set_ylim(-8, 105)
     axes.set_ylabel("success % (95 % interval)")
@@ -112,8 +138,15 @@ def score_vs_complexity(task_table: pd.DataFrame, stem: Path) -> list[Path]:
         x = rows["difficulty_score"].astype(float) + offset + rng.uniform(-0.05, 0.05, len(rows))
         axes.scatter(x, rows["score"], s=18, alpha=0.6, color=colours[policy], edgecolor="none")
         means = rows.groupby("difficulty_score")["score"].mean()
-        axes.plot(means.index.astype(float) + offset, means.values, "-", marker="D", markersize=5,
-                  color=colours[policy], label=f"{policy} (mean per rating)")  # fmt: skip
+        axes.plot(
+            means.index.astype(float) + offset,
+            means.values,
+            "-",
+            marker="D",
+            markersize=5,
+            color=colours[policy],
+            label=f"{policy} (mean per rating)",
+        )
     scores = sorted(table["difficulty_score"].astype(int).unique())
     axes.set_xticks(scores)
     axes.set_xlabel("task complexity: RoboLab difficulty score (subtasks + skill weight)")
@@ -135,10 +168,18 @@ def success_heatmap(task_table: pd.DataFrame, stem: Path) -> list[Path]:
     image = axes.imshow(grid.to_numpy(), cmap="RdYlGn", vmin=0, vmax=100, aspect="auto")
     for (i, j), value in np.ndenumerate(grid.to_numpy()):
         if not math.isnan(value):
-            axes.text(j, i, f"{value:.0f}", ha="center", va="center", fontsize=7,
-                      color="white" if value < 20 or value > 85 else "black")  # fmt: skip
-    axes.set_xticks(range(columns), grid.columns, rotation=30 if columns > 3 else 0,
-                    ha="right" if columns > 3 else "center")  # fmt: skip
+            axes.text(
+                j,
+                i,
+                f"{value:.0f}",
+                ha="center",
+                va="center",
+                fontsize=7,
+                color="white" if value < 20 or value > 85 else "black",
+            )
+    axes.set_xticks(
+        range(columns), grid.columns, rotation=30 if columns > 3 else 0, ha="right" if columns > 3 else "center"
+    )
     axes.set_yticks(range(rows), grid.index, fontsize=7.5)
     axes.tick_params(length=0)
     for side in axes.spines.values():
@@ -149,15 +190,14 @@ def success_heatmap(task_table: pd.DataFrame, stem: Path) -> list[Path]:
     return save(figure, stem)
 
 
-def success_by_parameters(episodes: pd.DataFrame, parameters: Sequence[str], stem: Path,
-                          bins: int = 5) -> list[Path]:  # fmt: skip
+def success_by_parameters(episodes: pd.DataFrame, parameters: Sequence[str], stem: Path, bins: int = 5) -> list[Path]:
     """Success % against each varied parameter, one panel each, 12 panels per figure."""
     plt = _pyplot()
     policies = sorted(episodes["policy"].unique())
     colours = policy_colours(policies)
     written = []
     for page, start in enumerate(range(0, len(parameters), PANELS_PER_FIGURE)):
-        chosen = parameters[start:start + PANELS_PER_FIGURE]
+        chosen = parameters[start : start + PANELS_PER_FIGURE]
         columns = min(3, len(chosen))
         rows = math.ceil(len(chosen) / columns)
         figure, grid = plt.subplots(rows, columns, figsize=(3.6 * columns, 2.8 * rows), squeeze=False)
@@ -166,7 +206,7 @@ def success_by_parameters(episodes: pd.DataFrame, parameters: Sequence[str], ste
             _parameter_panel(axes, breakdown(drawn, parameter, bins=bins), parameter, policies, colours)
             if len(drawn) < len(episodes):
                 axes.set_title(f"{axes.get_title()}\n{len(drawn)} of {len(episodes)} episodes", fontsize=9)
-        for axes in list(grid.flat)[len(chosen):]:
+        for axes in list(grid.flat)[len(chosen) :]:
             axes.set_visible(False)
         handles, labels = grid.flat[0].get_legend_handles_labels()
         figure.legend(handles, labels, title="policy", loc="upper left", bbox_to_anchor=(1.0, 0.98), frameon=False)
@@ -193,16 +233,38 @@ def _parameter_panel(axes, table: pd.DataFrame, parameter: str, policies: Sequen
         rows = table[table["policy"] == policy]
         if binned:
             x = rows[f"{parameter}_mean"].astype(float) + offset * span * 0.04
-            axes.errorbar(x, rows["success_%"], yerr=_interval_errors(rows), fmt="-o", capsize=2, markersize=3.5,
-                          linewidth=1, color=colours[policy], label=policy)  # fmt: skip
+            axes.errorbar(
+                x,
+                rows["success_%"],
+                yerr=_interval_errors(rows),
+                fmt="-o",
+                capsize=2,
+                markersize=3.5,
+                linewidth=1,
+                color=colours[policy],
+                label=policy,
+            )
         else:
             x = np.array([categories.index(c) for c in rows[parameter]]) + offset * 0.5
-            axes.errorbar(x, rows["success_%"], yerr=_interval_errors(rows), fmt="o", capsize=2, markersize=3.5,
-                          color=colours[policy], label=policy)  # fmt: skip
+            axes.errorbar(
+                x,
+                rows["success_%"],
+                yerr=_interval_errors(rows),
+                fmt="o",
+                capsize=2,
+                markersize=3.5,
+                color=colours[policy],
+                label=policy,
+            )
     if not binned:
         long = max(len(str(c)) for c in categories) > 6 or len(categories) > 5
-        axes.set_xticks(range(len(categories)), [str(c) for c in categories], rotation=35 if long else 0,
-                        ha="right" if long else "center", fontsize=7.5)  # fmt: skip
+        axes.set_xticks(
+            range(len(categories)),
+            [str(c) for c in categories],
+            rotation=35 if long else 0,
+            ha="right" if long else "center",
+            fontsize=7.5,
+        )
         axes.set_xlim(-0.6, len(categories) - 0.4)
     axes.set_title(parameter + (" (binned)" if binned else ""), fontsize=9)
     axes.set_ylim(-5, 105)
@@ -242,8 +304,15 @@ def paired_differences(comparison, stem: Path) -> list[Path]:
     y = np.arange(len(labels))
     colours = ["tab:red" if s else "0.35" for s in table["significant"]] + ["black"]
     for yi, value, lo, hi, colour in zip(y, values, low, high, colours):
-        axes.errorbar(value, yi, xerr=[[value - lo], [hi - value]], fmt="D" if yi == len(labels) - 1 else "o",
-                      color=colour, capsize=3, markersize=4)  # fmt: skip
+        axes.errorbar(
+            value,
+            yi,
+            xerr=[[value - lo], [hi - value]],
+            fmt="D" if yi == len(labels) - 1 else "o",
+            color=colour,
+            capsize=3,
+            markersize=4,
+        )
     axes.axvline(0, color="0.6", linewidth=0.8)
     axes.axhline(len(labels) - 1.5, color="0.8", linewidth=0.8)
     axes.set_ylim(-0.7, len(labels) - 0.3)

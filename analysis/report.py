@@ -55,15 +55,42 @@ GROUPINGS = {
     "run": "run",
     "condition": "condition",
     "simulator": "simulator",
-}  # fmt: skip
-STANDARD_VIEWS = ("task", "axis", "attribute", "difficulty", "scene", "variant", "num_objects", "episode_length",
-                  "wrong_objects")  # fmt: skip
-OUTCOME_COLUMNS = ("episodes", "successes", "success_%", "success_ci95_low_%", "success_ci95_high_%", "score",
-                   "score_fail", "progress", "time_to_success_s", "errors")  # fmt: skip
+}
+STANDARD_VIEWS = (
+    "task",
+    "axis",
+    "attribute",
+    "difficulty",
+    "scene",
+    "variant",
+    "num_objects",
+    "episode_length",
+    "wrong_objects",
+)
+OUTCOME_COLUMNS = (
+    "episodes",
+    "successes",
+    "success_%",
+    "success_ci95_low_%",
+    "success_ci95_high_%",
+    "score",
+    "score_fail",
+    "progress",
+    "time_to_success_s",
+    "errors",
+)
 METRIC_COLUMNS = tuple(column for _, column, _ in _METRIC_SOURCES)
 LEGACY_METRIC_COLUMNS = tuple(column for _, column, _ in _LEGACY_METRIC_SOURCES)
-TASK_DETAIL_COLUMNS = ("scene", "difficulty", "difficulty_score", "num_subtasks", "num_objects", "episode_seconds",
-                       "axes", "attributes")  # fmt: skip
+TASK_DETAIL_COLUMNS = (
+    "scene",
+    "difficulty",
+    "difficulty_score",
+    "num_subtasks",
+    "num_objects",
+    "episode_seconds",
+    "axes",
+    "attributes",
+)
 UNKNOWN = "(unknown)"
 
 
@@ -71,8 +98,9 @@ UNKNOWN = "(unknown)"
 # Tables
 
 
-def breakdown(episodes: pd.DataFrame, by: str | Sequence[str] = (), per_policy: bool = True,
-              bins: int = DEFAULT_BINS) -> pd.DataFrame:  # fmt: skip
+def breakdown(
+    episodes: pd.DataFrame, by: str | Sequence[str] = (), per_policy: bool = True, bins: int = DEFAULT_BINS
+) -> pd.DataFrame:
     """One row per policy and group of `by` (grouping names or episode columns, see the module docstring; none:
     one row per policy) with episodes, successes, success % and its 95 % Beta interval, score, Score(fail),
     progress, time to success (mean over successes), errors, the trajectory metrics (means) and the event types
@@ -160,12 +188,20 @@ def equal_count_bins(values: pd.Series, bins: int) -> pd.Categorical:
 
 def parameter_columns(episodes: pd.DataFrame) -> list[str]:
     """The drawn variation parameters recorded in `episodes` (docs/variations.md), those that vary, sorted."""
-    fixed = {f.name for f in fields(EpisodeResult)} | {"run", "events", "time_to_success_s", *TASK_COLUMNS,
-                                                       *METRIC_COLUMNS, *LEGACY_METRIC_COLUMNS, *EVENT_TYPES}  # fmt: skip
+    fixed = {f.name for f in fields(EpisodeResult)} | {
+        "run",
+        "events",
+        "time_to_success_s",
+        *TASK_COLUMNS,
+        *METRIC_COLUMNS,
+        *LEGACY_METRIC_COLUMNS,
+        *EVENT_TYPES,
+    }
     return sorted(
-        column for column in episodes.columns
+        column
+        for column in episodes.columns
         if column not in fixed and not column.startswith(("objects_", "_")) and episodes[column].nunique() > 1
-    )  # fmt: skip
+    )
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -188,8 +224,10 @@ class Condition:
     def parse(cls, text: str) -> Condition:
         match = _CONDITION.match(text)
         if not match or not match.group(3):
-            raise RoboLabError(f"--where '{text}': write FIELD=VALUE, FIELD!=VALUE or FIELD>=NUMBER (also <, <=, >), "
-                               "e.g. --where light_color=red,blue or --where \"num_objects>=10\"")  # fmt: skip
+            raise RoboLabError(
+                f"--where '{text}': write FIELD=VALUE, FIELD!=VALUE or FIELD>=NUMBER (also <, <=, >), "
+                'e.g. --where light_color=red,blue or --where "num_objects>=10"'
+            )
         field, op, value = match.groups()
         op = "=" if op == "==" else op
         values = tuple(part.strip() for part in value.split(",")) if op in ("=", "!=") else (value,)
@@ -214,20 +252,25 @@ class Condition:
         elif numeric is not None:
             numbers = [self._number(value, column) for value in self.values]
             if self.op in ("=", "!="):
-                hit = pd.Series(np.isclose(numeric.to_numpy()[:, None], np.array(numbers)[None, :]).any(axis=1),
-                                index=values.index)  # fmt: skip
+                hit = pd.Series(
+                    np.isclose(numeric.to_numpy()[:, None], np.array(numbers)[None, :]).any(axis=1), index=values.index
+                )
             else:
                 compare = {"<": numeric.lt, "<=": numeric.le, ">": numeric.gt, ">=": numeric.ge}[self.op]
                 return compare(numbers[0]).fillna(False)
         else:
             if self.op not in ("=", "!="):
-                raise RoboLabError(f"--where '{self.text}': {column} holds names, not numbers; use = or != "
-                                   f"(values: {_listing(values)})")  # fmt: skip
+                raise RoboLabError(
+                    f"--where '{self.text}': {column} holds names, not numbers; use = or != "
+                    f"(values: {_listing(values)})"
+                )
             hit = values.astype(str).isin(self.values)
             missing = [value for value in self.values if value not in set(values.astype(str))]
             if missing:
-                raise RoboLabError(f"--where '{self.text}': no episode has {column}={missing[0]}; "
-                                   f"{did_you_mean(missing[0], values.dropna().astype(str).unique())}")  # fmt: skip
+                raise RoboLabError(
+                    f"--where '{self.text}': no episode has {column}={missing[0]}; "
+                    f"{did_you_mean(missing[0], values.dropna().astype(str).unique())}"
+                )
         return hit if self.op == "=" else ~hit
 
     def _number(self, value: str, column: str) -> float:
@@ -254,14 +297,21 @@ def resolve_field(episodes: pd.DataFrame, name: str, option: str) -> str:
     known = sorted(set(GROUPINGS) | {c for c in episodes.columns if not c.startswith("_")})
     parameters = parameter_columns(episodes)
     listed = f" Varied parameters here: {', '.join(parameters)}." if parameters else " No parameter varies here."
-    raise RoboLabError(f"{option}: no field '{name}' in these episodes. {did_you_mean(name, known)} Groupings: "
-                       f"{', '.join(GROUPINGS)}.{listed} Any column of the episode lines also works "
-                       "(docs/results.md).")  # fmt: skip
+    raise RoboLabError(
+        f"{option}: no field '{name}' in these episodes. {did_you_mean(name, known)} Groupings: "
+        f"{', '.join(GROUPINGS)}.{listed} Any column of the episode lines also works "
+        "(docs/results.md)."
+    )
 
 
-def filter_episodes(episodes: pd.DataFrame, tasks: Sequence[str] | None = None,
-                    policies: Sequence[str] | None = None, attributes: Sequence[str] | None = None,
-                    axes: Sequence[str] | None = None, where: Iterable[str | Condition] = ()) -> pd.DataFrame:  # fmt: skip
+def filter_episodes(
+    episodes: pd.DataFrame,
+    tasks: Sequence[str] | None = None,
+    policies: Sequence[str] | None = None,
+    attributes: Sequence[str] | None = None,
+    axes: Sequence[str] | None = None,
+    where: Iterable[str | Condition] = (),
+) -> pd.DataFrame:
     """The episodes that meet every filter (several values of one filter: any of them); unknown names and
     filters that leave nothing are errors that say what is there."""
     keep = pd.Series(True, index=episodes.index)
@@ -279,7 +329,7 @@ def filter_episodes(episodes: pd.DataFrame, tasks: Sequence[str] | None = None,
             for name in wanted:
                 if name not in present:
                     raise RoboLabError(f"{option} {name}: no task of these runs has it. {did_you_mean(name, present)}")
-            keep &= lists.map(lambda names: bool(names & set(wanted)))
+            keep &= lists.map(lambda names, wanted=wanted: bool(names & set(wanted)))
     for condition in where:
         condition = condition if isinstance(condition, Condition) else Condition.parse(condition)
         keep &= condition.mask(episodes)
@@ -303,19 +353,35 @@ def markdown_table(table: pd.DataFrame, groups: Sequence[str]) -> str:
     time to success, SPARC, path length, speed and wrong grasps per episode."""
     if table.empty:
         return "_no episodes_\n"
-    header = [*groups, "episodes", "success % [95 % CI]", "score", "score(fail)", "time to success s",
-              "SPARC", "path cm", "speed cm/s", "wrong grasps/ep"]  # fmt: skip
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" if i < len(groups) else "--:"
-                                                              for i in range(len(header))) + "|"]  # fmt: skip
+    header = [
+        *groups,
+        "episodes",
+        "success % [95 % CI]",
+        "score",
+        "score(fail)",
+        "time to success s",
+        "SPARC",
+        "path cm",
+        "speed cm/s",
+        "wrong grasps/ep",
+    ]
+    lines = [
+        "| " + " | ".join(header) + " |",
+        "|" + "|".join("---" if i < len(groups) else "--:" for i in range(len(header))) + "|",
+    ]
     for _, row in table.iterrows():
         cells = [_cell(row[group]) for group in groups]
         cells += [
             str(int(row["episodes"])),
             f"{row['success_%']:.1f} [{row['success_ci95_low_%']:.1f}, {row['success_ci95_high_%']:.1f}]",
-            _fmt(row["score"], 2), _fmt(row["score_fail"], 2), _fmt(row["time_to_success_s"], 1),
-            _fmt(row["ee_sparc"], 2), _fmt(row["ee_path_cm"], 0), _fmt(row["ee_speed_mean_cm_s"], 1),
+            _fmt(row["score"], 2),
+            _fmt(row["score_fail"], 2),
+            _fmt(row["time_to_success_s"], 1),
+            _fmt(row["ee_sparc"], 2),
+            _fmt(row["ee_path_cm"], 0),
+            _fmt(row["ee_speed_mean_cm_s"], 1),
             _fmt(row["wrong_object_grasped"], 2),
-        ]  # fmt: skip
+        ]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -360,9 +426,11 @@ def report_markdown(report: Report, comparison=None) -> str:
         from robolab_ms.analysis.paired import comparison_markdown
 
         parts.append(comparison_markdown(comparison))
-    parts.append("Success interval: 95 % equal-tailed Beta(k+1, n-k+1) (uniform prior). Score(fail): mean score of "
-                 "the failed episodes. Time to success: mean over successes. SPARC: end effector, closer to 0 is "
-                 "smoother.\n")  # fmt: skip
+    parts.append(
+        "Success interval: 95 % equal-tailed Beta(k+1, n-k+1) (uniform prior). Score(fail): mean score of "
+        "the failed episodes. Time to success: mean over successes. SPARC: end effector, closer to 0 is "
+        "smoother.\n"
+    )
     return "\n".join(parts)
 
 
@@ -397,8 +465,11 @@ def _flat(episodes: pd.DataFrame) -> pd.DataFrame:
         if flat[column].dtype == object and flat[column].map(lambda v: isinstance(v, (dict, list))).any():
             flat[column] = flat[column].map(lambda v: None if v is None else str(v))
         elif flat[column].dtype == object:  # missing (None, NaN) stays missing, not the text "nan"
-            flat[column] = flat[column].map(lambda v: v if v is None or isinstance(v, str)
-                                            else None if isinstance(v, float) and math.isnan(v) else str(v))  # fmt: skip
+            flat[column] = flat[column].map(
+                lambda v: (
+                    v if v is None or isinstance(v, str) else None if isinstance(v, float) and math.isnan(v) else str(v)
+                )
+            )
     return flat
 
 

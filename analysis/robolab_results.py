@@ -101,8 +101,9 @@ def read_robolab_folder(folder: str | Path) -> list[EpisodeResult]:
             warnings.warn(f"{path} line {number}: not complete JSON (an interrupted run?); skipped", stacklevel=2)
             continue
         line = _read_line(record, _Where(path, number), variant_of_folder, policy_of_folder)
-        lines[(line.env_name, line.result.instruction_variant, line.episode if line.episode is not None
-               else -number)] = line  # fmt: skip
+        lines[
+            (line.env_name, line.result.instruction_variant, line.episode if line.episode is not None else -number)
+        ] = line
     return _assign_seeds(list(lines.values()))
 
 
@@ -127,8 +128,10 @@ def _folder_defaults(name: str) -> tuple[str | None, str | None]:
 
 def _read_line(record: Any, where: _Where, variant_of_folder: str | None, policy_of_folder: str | None) -> _Line:
     if not isinstance(record, dict):
-        raise RoboLabError(f"{where.path} line {where.line}: not a JSON object; each line of {ROBOLAB_RESULTS_FILE} "
-                           "is one episode's object as RoboLab writes it")  # fmt: skip
+        raise RoboLabError(
+            f"{where.path} line {where.line}: not a JSON object; each line of {ROBOLAB_RESULTS_FILE} "
+            "is one episode's object as RoboLab writes it"
+        )
     env_name = _text(record, "env_name", where, required=False)
     task_name = _text(record, "task_name", where, required=False)
     if not env_name and not task_name:
@@ -154,7 +157,7 @@ def _read_line(record: Any, where: _Where, variant_of_folder: str | None, policy
         score = 1.0 if success else math.nan
     timing = record.get("timing") or {}
     if not isinstance(timing, dict):
-        raise where.error("timing", "not a JSON object", "write {\"wall_total_s\": ..., ...} or leave it out")
+        raise where.error("timing", "not a JSON object", 'write {"wall_total_s": ..., ...} or leave it out')
     episode = _number(record, "episode", where, integer=True)
     result = EpisodeResult(
         task=task,
@@ -175,10 +178,13 @@ def _read_line(record: Any, where: _Where, variant_of_folder: str | None, policy
         env_step_ms=_timing(timing, "env_step_avg_ms", where),
         steps_per_second=_timing(timing, "it_per_sec", where),
         condition=suffix,
-        variation={key: value for key, value in record.items()
-                   if key not in KNOWN_FIELDS and isinstance(value, (str, int, float)) and not isinstance(value, bool)},
+        variation={
+            key: value
+            for key, value in record.items()
+            if key not in KNOWN_FIELDS and isinstance(value, (str, int, float)) and not isinstance(value, bool)
+        },
         simulator=ROBOLAB_SIMULATOR,
-    )  # fmt: skip
+    )
     result.event_counts, result.event_objects = _events(record.get("events"), where)
     return _Line(where.line, env_name, None if episode is None else int(episode), result)
 
@@ -194,8 +200,10 @@ def _assign_seeds(lines: list[_Line]) -> list[EpisodeResult]:
             for line in members:
                 line.result.seed = line.episode
         else:
-            ordered = sorted(members, key=lambda line: (line.env_name, line.episode if line.episode is not None
-                                                        else math.inf, line.number))  # fmt: skip
+            ordered = sorted(
+                members,
+                key=lambda line: (line.env_name, line.episode if line.episode is not None else math.inf, line.number),
+            )
             for seed, line in enumerate(ordered):
                 line.result.seed = seed
     return [line.result for line in lines]
@@ -229,11 +237,19 @@ def robolab120_task_rows(names: Iterable[str]) -> list[dict[str, Any]]:
     rows = []
     for name in sorted(set(names) & set(_robolab_facts())):
         facts = _robolab_facts()[name]
-        rows.append({
-            "task": name, "scene": facts.scene, "attributes": ";".join(sorted(facts.attributes)),
-            "axes": ";".join(facts.axes), "difficulty": facts.difficulty, "difficulty_score": facts.difficulty_score,
-            "num_subtasks": facts.subtasks, "num_objects": facts.objects, "episode_seconds": facts.episode_seconds,
-        })  # fmt: skip
+        rows.append(
+            {
+                "task": name,
+                "scene": facts.scene,
+                "attributes": ";".join(sorted(facts.attributes)),
+                "axes": ";".join(facts.axes),
+                "difficulty": facts.difficulty,
+                "difficulty_score": facts.difficulty_score,
+                "num_subtasks": facts.subtasks,
+                "num_objects": facts.objects,
+                "episode_seconds": facts.episode_seconds,
+            }
+        )
     return rows
 
 
@@ -256,10 +272,17 @@ def _number(record: dict, key: str, where: _Where, integer: bool = False, label:
     value = record.get(key)
     if value is None or (not integer and isinstance(value, float) and math.isnan(value)):
         return None
-    if (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
-            or (integer and value != int(value))):  # fmt: skip
-        raise where.error(label or key, f"{value!r} is not {'a whole number' if integer else 'a finite number'}",
-                          "write a JSON number or null")  # fmt: skip
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or (integer and value != int(value))
+    ):
+        raise where.error(
+            label or key,
+            f"{value!r} is not {'a whole number' if integer else 'a finite number'}",
+            "write a JSON number or null",
+        )
     return float(value)
 
 
@@ -272,7 +295,7 @@ def _metrics(record: dict, where: _Where) -> dict[str, float | None]:
     if metrics is None:
         metrics = {}
     if not isinstance(metrics, dict):
-        raise where.error("metrics", "not a JSON object", "write {\"ee_sparc\": ..., ...} or leave it out")
+        raise where.error("metrics", "not a JSON object", 'write {"ee_sparc": ..., ...} or leave it out')
     values: dict[str, float | None] = {}
     for key in METRIC_KEYS:
         source = metrics if key in metrics else record
@@ -290,7 +313,7 @@ def _events(events: Any, where: _Where) -> tuple[dict[str, int], dict[str, list[
     if events is None:
         return {}, {}
     if not isinstance(events, dict):
-        raise where.error("events", "not a JSON object", "write {\"OBJECT_BUMPED\": 2, ...} or leave it out")
+        raise where.error("events", "not a JSON object", 'write {"OBJECT_BUMPED": 2, ...} or leave it out')
     counts: dict[str, int] = {}
     objects: dict[str, list[str]] = {}
     wrong_objects: list[str] | None = None
@@ -304,8 +327,11 @@ def _events(events: Any, where: _Where) -> tuple[dict[str, int], dict[str, list[
         elif isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0 and value == int(value):
             count, names = int(value), []
         else:
-            raise where.error(f"events.{name}", f"{value!r} is neither a count nor a list",
-                              "RoboLab writes a whole number, or a list of object names")  # fmt: skip
+            raise where.error(
+                f"events.{name}",
+                f"{value!r} is neither a count nor a list",
+                "RoboLab writes a whole number, or a list of object names",
+            )
         kind = EVENT_NAMES.get(name.lower(), name.lower())
         if kind not in EVENT_TYPES:
             continue

@@ -28,15 +28,27 @@ from pathlib import Path
 
 import pandas as pd
 
-from robolab_ms.analysis.robolab_results import (ROBOLAB_RESULTS_FILE, is_robolab_folder, read_robolab_folder,
-                                                 robolab120_task_rows)  # fmt: skip
+from robolab_ms.analysis.robolab_results import (
+    ROBOLAB_RESULTS_FILE,
+    is_robolab_folder,
+    read_robolab_folder,
+    robolab120_task_rows,
+)
 from robolab_ms.analysis.tables import episode_frame
 from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult, read_results
 from robolab_ms.tasks.spec import CONTROL_HZ
 
-TASK_COLUMNS = ("scene", "attributes", "axes", "difficulty", "difficulty_score", "num_subtasks", "num_objects",
-                "episode_seconds")  # fmt: skip
+TASK_COLUMNS = (
+    "scene",
+    "attributes",
+    "axes",
+    "difficulty",
+    "difficulty_score",
+    "num_subtasks",
+    "num_objects",
+    "episode_seconds",
+)
 DIFFICULTY_ORDER = ("simple", "moderate", "complex")
 
 
@@ -66,17 +78,19 @@ def task_table(tasks: Iterable[str] | None = None) -> pd.DataFrame:
         specs = [load_task(name) for name in sorted(set(tasks)) if name in known]
     rows = []
     for spec in specs:
-        rows.append({
-            "task": spec.name,
-            "scene": spec.scene.name,
-            "attributes": ";".join(sorted(spec.attributes)),
-            "axes": ";".join(spec.axes),
-            "difficulty": spec.difficulty,
-            "difficulty_score": spec.difficulty_score,
-            "num_subtasks": spec.num_subtasks,
-            "num_objects": len(spec.scene.objects),
-            "episode_seconds": spec.episode_seconds,
-        })  # fmt: skip
+        rows.append(
+            {
+                "task": spec.name,
+                "scene": spec.scene.name,
+                "attributes": ";".join(sorted(spec.attributes)),
+                "axes": ";".join(spec.axes),
+                "difficulty": spec.difficulty,
+                "difficulty_score": spec.difficulty_score,
+                "num_subtasks": spec.num_subtasks,
+                "num_objects": len(spec.scene.objects),
+                "episode_seconds": spec.episode_seconds,
+            }
+        )
     if tasks is not None:
         rows += robolab120_task_rows(set(tasks) - {row["task"] for row in rows})
     return pd.DataFrame(rows, columns=["task", *TASK_COLUMNS]).set_index("task")
@@ -102,8 +116,10 @@ def load_runs(folders: Sequence[str | Path], task_info: pd.DataFrame | None = No
         elif (path / EPISODES_FILE).exists():
             folder_results = read_results(path)
         else:
-            raise RoboLabError(f"{path}: no {EPISODES_FILE} in it; is it a results folder of `robolab eval`? (A "
-                               f"RoboLab run folder has {ROBOLAB_RESULTS_FILE}.)")  # fmt: skip
+            raise RoboLabError(
+                f"{path}: no {EPISODES_FILE} in it; is it a results folder of `robolab eval`? (A "
+                f"RoboLab run folder has {ROBOLAB_RESULTS_FILE}.)"
+            )
         for result in folder_results:
             results[result.key()] = (label, result)
     if not results:
@@ -115,8 +131,11 @@ def load_runs(folders: Sequence[str | Path], task_info: pd.DataFrame | None = No
         task_info = task_table(names)
     unknown = [name for name in names if name not in task_info.index]
     if unknown:
-        warnings.warn(f"no task file describes {', '.join(unknown)}: their scene, attributes and difficulty stay "
-                      "empty (pass --content DIR with their task files)", stacklevel=2)  # fmt: skip
+        warnings.warn(
+            f"no task file describes {', '.join(unknown)}: their scene, attributes and difficulty stay "
+            "empty (pass --content DIR with their task files)",
+            stacklevel=2,
+        )
     episodes = episodes.join(task_info.reindex(columns=list(TASK_COLUMNS)), on="task")
     episodes["time_to_success_s"] = pd.to_numeric(episodes["success_step"], errors="coerce") / CONTROL_HZ
     return RunSet(episodes=episodes.reset_index(drop=True), folders=paths, unknown_tasks=unknown)

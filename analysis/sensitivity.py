@@ -170,11 +170,14 @@ def rotation_angle(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.n
     cr, sr = np.cos(roll), np.sin(roll)
     cp, sp = np.cos(pitch), np.sin(pitch)
     cy, sy = np.cos(yaw), np.sin(yaw)
-    matrix = np.stack([
-        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], axis=-1),
-        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], axis=-1),
-        np.stack([-sp, cp * sr, cp * cr], axis=-1),
-    ], axis=-2)  # fmt: skip
+    matrix = np.stack(
+        [
+            np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], axis=-1),
+            np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], axis=-1),
+            np.stack([-sp, cp * sr, cp * cr], axis=-1),
+        ],
+        axis=-2,
+    )
     difference = np.linalg.norm(matrix - np.eye(3), axis=(-2, -1))
     return 2.0 * np.arcsin(np.clip(difference / (2.0 * math.sqrt(2.0)), 0.0, 1.0))
 
@@ -186,8 +189,11 @@ def variation_columns(runs: RunSet) -> list[str]:
     for manifest in _manifests(runs):
         listed.update(_mapping(manifest.get("params")) if manifest.get("synthetic") else {})
     episodes = runs.episodes
-    return [column for column in episodes.columns
-            if (axis_parameter(column) or column in listed) and episodes[column].notna().any()]  # fmt: skip
+    return [
+        column
+        for column in episodes.columns
+        if (axis_parameter(column) or column in listed) and episodes[column].notna().any()
+    ]
 
 
 def _manifests(runs: RunSet) -> list[dict]:
@@ -230,8 +236,11 @@ def _recorded_ranges(runs: RunSet) -> dict[str, list[tuple[float, float, bool]]]
 
 
 def _is_number_pair(values: Any) -> bool:
-    return (isinstance(values, (list, tuple)) and len(values) == 2
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values))  # fmt: skip
+    return (
+        isinstance(values, (list, tuple))
+        and len(values) == 2
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values)
+    )
 
 
 def _continuous_parameter(column: str, values: pd.Series, recorded: dict) -> tuple[Parameter, str | None]:
@@ -259,8 +268,10 @@ def _continuous_parameter(column: str, values: pd.Series, recorded: dict) -> tup
         tolerance = 1e-6 * max(1.0, abs(high - low))
         if high > low and seen_low >= low - tolerance and seen_high <= high + tolerance:
             return Parameter(column, "continuous", low, high, log, source=source), None
-        note = (f"{column}: values {seen_low:g}..{seen_high:g} lie outside its {source} range {low:g}..{high:g}; "
-                "normalised over the values seen")  # fmt: skip
+        note = (
+            f"{column}: values {seen_low:g}..{seen_high:g} lie outside its {source} range {low:g}..{high:g}; "
+            "normalised over the values seen"
+        )
     return Parameter(column, "continuous", seen_low, seen_high, False, source="observed"), note
 
 
@@ -292,8 +303,9 @@ def parse_at(values: Sequence[str] | None) -> dict[str, float]:
                 raise ValueError
             at[name.strip()] = float(number)
         except ValueError:
-            raise RoboLabError(f"--at '{item}': write OBSERVATION=NUMBER, e.g. --at success=1 or "
-                               "--at success=0,duration=6") from None  # fmt: skip
+            raise RoboLabError(
+                f"--at '{item}': write OBSERVATION=NUMBER, e.g. --at success=1 or --at success=0,duration=6"
+            ) from None
     return at
 
 
@@ -306,8 +318,14 @@ class _Inputs:
     notes: list[str]
 
 
-def prepare(runs: RunSet, params: Sequence[str] | None = None, observations: Sequence[str] = ("success",),
-            beta: float = 1.0, policy: str | None = None, tasks: Sequence[str] | None = None) -> _Inputs:
+def prepare(
+    runs: RunSet,
+    params: Sequence[str] | None = None,
+    observations: Sequence[str] = ("success",),
+    beta: float = 1.0,
+    policy: str | None = None,
+    tasks: Sequence[str] | None = None,
+) -> _Inputs:
     """The normalised parameters (theta, continuous first) and observations (x) of the chosen episodes; raises
     RoboLabError naming the fix for anything that cannot be analysed."""
     import pandas as pd
@@ -320,8 +338,10 @@ def prepare(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
     if tasks:
         unknown = sorted(set(tasks) - set(episodes["task"]))
         if unknown:
-            raise RoboLabError(f"--task {' '.join(unknown)}: no episodes of it in {where}. "
-                               f"{did_you_mean(unknown[0], episodes['task'].unique())}")  # fmt: skip
+            raise RoboLabError(
+                f"--task {' '.join(unknown)}: no episodes of it in {where}. "
+                f"{did_you_mean(unknown[0], episodes['task'].unique())}"
+            )
         episodes = episodes[episodes["task"].isin(tasks)]
     policies = sorted(episodes["policy"].unique())
     if policy is not None:
@@ -329,8 +349,10 @@ def prepare(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
             raise RoboLabError(f"--policy {policy}: no episodes of it in {where}. {did_you_mean(policy, policies)}")
         episodes = episodes[episodes["policy"] == policy]
     elif len(policies) > 1:
-        raise RoboLabError(f"{where} hold episodes of {len(policies)} policies ({', '.join(policies)}); a sensitivity "
-                           "analysis is of one policy: choose it with --policy NAME")  # fmt: skip
+        raise RoboLabError(
+            f"{where} hold episodes of {len(policies)} policies ({', '.join(policies)}); a sensitivity "
+            "analysis is of one policy: choose it with --policy NAME"
+        )
     errored = episodes["error"].notna() if "error" in episodes else pd.Series(False, index=episodes.index)
     if errored.any():
         notes.append(f"{int(errored.sum())} errored episode(s) left out (their outcome is not the policy's)")
@@ -338,10 +360,12 @@ def prepare(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
 
     available = variation_columns(RunSet(episodes, runs.folders))
     if not available:
-        raise RoboLabError(f"no drawn variation parameters in the episodes of {where}: run the policy with "
-                           "domain randomization, e.g. `robolab eval --policy P --task T --episodes 100 "
-                           "--vary lighting,camera,objects --out DIR` (docs/variations.md), then analyse "
-                           "DIR")  # fmt: skip
+        raise RoboLabError(
+            f"no drawn variation parameters in the episodes of {where}: run the policy with "
+            "domain randomization, e.g. `robolab eval --policy P --task T --episodes 100 "
+            "--vary lighting,camera,objects --out DIR` (docs/variations.md), then analyse "
+            "DIR"
+        )
     cameras = _camera_groups(available)
     camera_columns = {column for names in cameras.values() for column in names}
     choices = [f"cam_{camera}_dist" for camera in cameras] + [c for c in available if c not in camera_columns]
@@ -350,8 +374,10 @@ def prepare(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
         chosen = _split(params)
         for name in chosen:
             if name not in choices and name not in available:
-                raise RoboLabError(f"--params: '{name}' is not a varied parameter of these episodes. "
-                                   f"{did_you_mean(name, choices)} Available: {', '.join(choices)}")  # fmt: skip
+                raise RoboLabError(
+                    f"--params: '{name}' is not a varied parameter of these episodes. "
+                    f"{did_you_mean(name, choices)} Available: {', '.join(choices)}"
+                )
         if len(set(chosen)) != len(chosen):
             raise RoboLabError(f"--params: a parameter is named twice in {', '.join(chosen)}")
         needed = [c for name in chosen for c in derived.get(name, [name])]
@@ -363,30 +389,40 @@ def prepare(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
         complete = [name for name in choices if episodes[derived.get(name, [name])].notna().all(axis=None)]
         partial = [name for name in choices if name not in complete]
         if partial:
-            notes.append(f"left out, recorded for some episodes only: {', '.join(partial)} (name them with --params "
-                         "to analyse the episodes that have them)")  # fmt: skip
-        chosen = [name for name in complete
-                  if episodes[derived.get(name, [name])].nunique(dropna=True).max() > 1]  # fmt: skip
+            notes.append(
+                f"left out, recorded for some episodes only: {', '.join(partial)} (name them with --params "
+                "to analyse the episodes that have them)"
+            )
+        chosen = [name for name in complete if episodes[derived.get(name, [name])].nunique(dropna=True).max() > 1]
         fixed = [name for name in complete if name not in chosen]
         if fixed:
             notes.append(f"left out, one value in every episode: {', '.join(fixed)}")
         if not chosen:
-            raise RoboLabError(f"no parameter takes more than one value in the episodes of {where}; run with "
-                               "--vary over ranges (e.g. --vary lighting,camera), not fixed conditions")  # fmt: skip
+            raise RoboLabError(
+                f"no parameter takes more than one value in the episodes of {where}; run with "
+                "--vary over ranges (e.g. --vary lighting,camera), not fixed conditions"
+            )
 
     x, observation_names = _observations(episodes, observations, where)
     if len(episodes) < MIN_EPISODES:
-        raise RoboLabError(f"{len(episodes)} usable episode(s) in {where}; a sensitivity analysis needs at least "
-                           f"{MIN_EPISODES} (RoboLab fits thousands): run more episodes with --episodes N")  # fmt: skip
+        raise RoboLabError(
+            f"{len(episodes)} usable episode(s) in {where}; a sensitivity analysis needs at least "
+            f"{MIN_EPISODES} (RoboLab fits thousands): run more episodes with --episodes N"
+        )
 
     recorded = _recorded_ranges(runs)
     parameters, columns = [], []
     for name in chosen:
         if name in derived:
             values = pd.Series(camera_distance(episodes[derived[name]].to_numpy(dtype=float), beta), name=name)
-            parameter = Parameter(name, "continuous", float(values.min()), float(values.max()), source="observed",
-                                  description=f"translation + {beta:g} x rotation angle from the nominal "
-                                  "pose")  # fmt: skip
+            parameter = Parameter(
+                name,
+                "continuous",
+                float(values.min()),
+                float(values.max()),
+                source="observed",
+                description=f"translation + {beta:g} x rotation angle from the nominal pose",
+            )
         else:
             values = episodes[name].reset_index(drop=True)
             numeric = pd.to_numeric(values, errors="coerce")
@@ -400,8 +436,9 @@ def prepare(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
         if (parameter.kind == "continuous" and parameter.high <= parameter.low) or (
             parameter.kind == "categorical" and len(parameter.categories) < 2
         ):
-            raise RoboLabError(f"--params: '{name}' takes one value in every chosen episode; nothing to learn about "
-                               "it: leave it out")  # fmt: skip
+            raise RoboLabError(
+                f"--params: '{name}' takes one value in every chosen episode; nothing to learn about it: leave it out"
+            )
         parameters.append(parameter)
         columns.append(parameter.normalise(values.reset_index(drop=True)))
     order = sorted(range(len(parameters)), key=lambda i: parameters[i].kind == "categorical")
@@ -416,9 +453,14 @@ def _observations(episodes: pd.DataFrame, names: Sequence[str], where: str) -> t
     from robolab_ms.tasks.spec import CONTROL_HZ
 
     chosen = _split(names) or ["success"]
-    numeric = [c for c in episodes.columns
-               if c not in DERIVED_OBSERVATIONS and pd.api.types.is_numeric_dtype(episodes[c])
-               and not axis_parameter(c) and episodes[c].notna().any()]  # fmt: skip
+    numeric = [
+        c
+        for c in episodes.columns
+        if c not in DERIVED_OBSERVATIONS
+        and pd.api.types.is_numeric_dtype(episodes[c])
+        and not axis_parameter(c)
+        and episodes[c].notna().any()
+    ]
     columns = []
     for name in chosen:
         if name == "success":
@@ -429,15 +471,21 @@ def _observations(episodes: pd.DataFrame, names: Sequence[str], where: str) -> t
             values = episodes[name].astype(float)
         else:
             known = [*DERIVED_OBSERVATIONS, *numeric]
-            raise RoboLabError(f"--obs: '{name}' is not an outcome of these episodes. {did_you_mean(name, known)} "
-                               f"Available: {', '.join(known)}")  # fmt: skip
+            raise RoboLabError(
+                f"--obs: '{name}' is not an outcome of these episodes. {did_you_mean(name, known)} "
+                f"Available: {', '.join(known)}"
+            )
         if values.isna().any():
-            raise RoboLabError(f"--obs: '{name}' has no value for {int(values.isna().sum())} episode(s) (e.g. "
-                               "time_to_success_s of failures); choose an outcome every episode has")  # fmt: skip
+            raise RoboLabError(
+                f"--obs: '{name}' has no value for {int(values.isna().sum())} episode(s) (e.g. "
+                "time_to_success_s of failures); choose an outcome every episode has"
+            )
         if values.nunique() < 2:
-            raise RoboLabError(f"--obs: '{name}' is {values.iloc[0]:g} in every episode of {where}, so no parameter "
-                               "can explain it; choose an outcome that varies (e.g. --obs duration or score) or "
-                               "add episodes where it does")  # fmt: skip
+            raise RoboLabError(
+                f"--obs: '{name}' is {values.iloc[0]:g} in every episode of {where}, so no parameter "
+                "can explain it; choose an outcome that varies (e.g. --obs duration or score) or "
+                "add episodes where it does"
+            )
         columns.append(values.to_numpy())
     if len(set(chosen)) != len(chosen):
         raise RoboLabError(f"--obs: an outcome is named twice in {', '.join(chosen)}")
@@ -449,8 +497,10 @@ def observed_outcome(x: np.ndarray, observations: Sequence[str], at: Mapping[str
     the episodes that match the given ones (over all episodes when none match)."""
     for name in at:
         if name not in observations:
-            raise RoboLabError(f"--at {name}=...: '{name}' is not among --obs ({', '.join(observations)}); add it "
-                               "to --obs or leave it out of --at")  # fmt: skip
+            raise RoboLabError(
+                f"--at {name}=...: '{name}' is not among --obs ({', '.join(observations)}); add it "
+                "to --obs or leave it out of --at"
+            )
     given = dict(at)
     if "success" in observations and "success" not in given:
         given["success"] = 1.0
@@ -460,8 +510,10 @@ def observed_outcome(x: np.ndarray, observations: Sequence[str], at: Mapping[str
     for name, value in given.items():
         match &= np.isclose(x[:, observations.index(name)], value)
     rows = x[match] if match.any() else x
-    return {name: float(given[name]) if name in given else float(np.median(rows[:, i]))
-            for i, name in enumerate(observations)}  # fmt: skip
+    return {
+        name: float(given[name]) if name in given else float(np.median(rows[:, i]))
+        for i, name in enumerate(observations)
+    }
 
 
 # ---------------------------------------------------------------------------------------------------------- fitting
@@ -488,9 +540,17 @@ class _NoTracking:
         pass
 
 
-def fit_posterior_samples(theta: np.ndarray, categories: Sequence[int], x: np.ndarray, x_o: np.ndarray,
-                          epochs: int = 50, samples: int = 5000, seed: int = 0, batch_size: int = 200,
-                          threads: int = 1) -> tuple[np.ndarray, str, int, float]:
+def fit_posterior_samples(
+    theta: np.ndarray,
+    categories: Sequence[int],
+    x: np.ndarray,
+    x_o: np.ndarray,
+    epochs: int = 50,
+    samples: int = 5000,
+    seed: int = 0,
+    batch_size: int = 200,
+    threads: int = 1,
+) -> tuple[np.ndarray, str, int, float]:
     """Train sbi's MNPE (when `categories`, the label counts of the last len(categories) columns, is not empty) or
     NPE on (theta, x) and draw `samples` posterior samples at x_o. Returns (samples, method, epochs trained, fit
     seconds). The same inputs and seed give the same samples."""
@@ -510,14 +570,16 @@ def fit_posterior_samples(theta: np.ndarray, categories: Sequence[int], x: np.nd
         inference = method(prior=prior, tracker=_NoTracking(), show_progress_bars=False)
         with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
             warnings.simplefilter("ignore")  # sbi's notes on column order, convergence and deprecated torch calls
-            inference.append_simulations(torch.as_tensor(theta, dtype=torch.float32),
-                                         torch.as_tensor(x, dtype=torch.float32))  # fmt: skip
+            inference.append_simulations(
+                torch.as_tensor(theta, dtype=torch.float32), torch.as_tensor(x, dtype=torch.float32)
+            )
             # sbi counts epochs from 0 to max_num_epochs inclusive: epochs - 1 trains `epochs` epochs
             inference.train(max_num_epochs=epochs - 1, training_batch_size=batch_size)
             posterior = inference.build_posterior()
             fit_seconds = time.perf_counter() - start
-            drawn = posterior.sample((samples,), x=torch.as_tensor(x_o, dtype=torch.float32)[None],
-                                     show_progress_bars=False)  # fmt: skip
+            drawn = posterior.sample(
+                (samples,), x=torch.as_tensor(x_o, dtype=torch.float32)[None], show_progress_bars=False
+            )
     finally:
         torch.set_num_threads(previous_threads)
     epochs_trained = int(inference.summary["epochs_trained"][-1]) if inference.summary.get("epochs_trained") else 0
@@ -533,15 +595,18 @@ def kde_density(points: np.ndarray, data: np.ndarray, chunk: int = 512) -> np.nd
     bandwidth = spread * count ** (-1.0 / (dims + 4))
     density = np.empty(len(points))
     for start in range(0, len(points), chunk):
-        block = points[start:start + chunk]
+        block = points[start : start + chunk]
         kernel = np.ones((len(block), count))
         for d in range(dims):
             centre = data[None, :, d]
             value = block[:, d, None]
             h = bandwidth[d]
-            kernel *= (np.exp(-0.5 * ((value - centre) / h) ** 2) + np.exp(-0.5 * ((value + centre) / h) ** 2)
-                       + np.exp(-0.5 * ((value - (2.0 - centre)) / h) ** 2)) / (h * math.sqrt(2 * math.pi))  # fmt: skip
-        density[start:start + chunk] = kernel.mean(axis=1)
+            kernel *= (
+                np.exp(-0.5 * ((value - centre) / h) ** 2)
+                + np.exp(-0.5 * ((value + centre) / h) ** 2)
+                + np.exp(-0.5 * ((value - (2.0 - centre)) / h) ** 2)
+            ) / (h * math.sqrt(2 * math.pi))
+        density[start : start + chunk] = kernel.mean(axis=1)
     return density
 
 
@@ -589,13 +654,19 @@ def ks_distance(values: np.ndarray, weights: np.ndarray, reference: np.ndarray |
         reference_cdf = {side: np.clip(grid, 0.0, 1.0) for side in ("left", "right")}
     else:
         sorted_reference = np.sort(reference)
-        reference_cdf = {side: np.searchsorted(sorted_reference, grid, side=side) / len(reference)
-                         for side in ("left", "right")}  # fmt: skip
+        reference_cdf = {
+            side: np.searchsorted(sorted_reference, grid, side=side) / len(reference) for side in ("left", "right")
+        }
     return float(max(np.abs(posterior_cdf(grid, side) - reference_cdf[side]).max() for side in ("left", "right")))
 
 
-def rank_table(parameters: Sequence[Parameter], samples: np.ndarray, weights: np.ndarray, theta: np.ndarray,
-               uniform_reference: bool) -> pd.DataFrame:
+def rank_table(
+    parameters: Sequence[Parameter],
+    samples: np.ndarray,
+    weights: np.ndarray,
+    theta: np.ndarray,
+    uniform_reference: bool,
+) -> pd.DataFrame:
     """One row per parameter, ranked by `shift` (largest first). Columns: rank, parameter, kind, shift,
     posterior_mean, ci95_low, ci95_high, prior_mean (normalised scale, continuous parameters), value_mean,
     value_ci95_low, value_ci95_high (the parameter's own units), top_category, top_posterior, top_prior
@@ -612,40 +683,86 @@ def rank_table(parameters: Sequence[Parameter], samples: np.ndarray, weights: np
         if parameter.kind == "continuous":
             mean = float(np.sum(weights * values))
             low, high = weighted_quantile(values, weights, [0.025, 0.975])
-            row.update(shift=ks_distance(values, weights, None if uniform_reference else drawn),
-                       posterior_mean=mean, ci95_low=float(low), ci95_high=float(high),
-                       prior_mean=0.5 if uniform_reference else float(drawn.mean()),
-                       value_mean=parameter.value(mean), value_ci95_low=parameter.value(low),
-                       value_ci95_high=parameter.value(high), range_low=parameter.low, range_high=parameter.high,
-                       log_scale=parameter.log, range_source=parameter.source)  # fmt: skip
+            row.update(
+                shift=ks_distance(values, weights, None if uniform_reference else drawn),
+                posterior_mean=mean,
+                ci95_low=float(low),
+                ci95_high=float(high),
+                prior_mean=0.5 if uniform_reference else float(drawn.mean()),
+                value_mean=parameter.value(mean),
+                value_ci95_low=parameter.value(low),
+                value_ci95_high=parameter.value(high),
+                range_low=parameter.low,
+                range_high=parameter.high,
+                log_scale=parameter.log,
+                range_source=parameter.source,
+            )
         else:
             count = len(parameter.categories)
             posterior = np.bincount(values.astype(int), weights=weights, minlength=count) / weights.sum()
-            prior = (np.full(count, 1.0 / count) if uniform_reference
-                     else np.bincount(drawn.astype(int), minlength=count) / len(drawn))  # fmt: skip
+            prior = (
+                np.full(count, 1.0 / count)
+                if uniform_reference
+                else np.bincount(drawn.astype(int), minlength=count) / len(drawn)
+            )
             top = int(np.argmax(posterior))
-            row.update(shift=float(0.5 * np.abs(posterior - prior).sum()), top_category=parameter.categories[top],
-                       top_posterior=float(posterior[top]), top_prior=float(prior[top]), range_source="labels")
+            row.update(
+                shift=float(0.5 * np.abs(posterior - prior).sum()),
+                top_category=parameter.categories[top],
+                top_posterior=float(posterior[top]),
+                top_prior=float(prior[top]),
+                range_source="labels",
+            )
         rows.append(row)
-    columns = ["rank", "parameter", "kind", "shift", "posterior_mean", "ci95_low", "ci95_high", "prior_mean",
-               "value_mean", "value_ci95_low", "value_ci95_high", "top_category", "top_posterior", "top_prior",
-               "range_low", "range_high", "log_scale", "range_source"]  # fmt: skip
+    columns = [
+        "rank",
+        "parameter",
+        "kind",
+        "shift",
+        "posterior_mean",
+        "ci95_low",
+        "ci95_high",
+        "prior_mean",
+        "value_mean",
+        "value_ci95_low",
+        "value_ci95_high",
+        "top_category",
+        "top_posterior",
+        "top_prior",
+        "range_low",
+        "range_high",
+        "log_scale",
+        "range_source",
+    ]
     table = pd.DataFrame(rows).sort_values(["shift", "parameter"], ascending=[False, True], kind="stable")
     table.insert(0, "rank", range(1, len(table) + 1))
     return table.reindex(columns=columns).reset_index(drop=True)
 
 
-def analyse(runs: RunSet, params: Sequence[str] | None = None, observations: Sequence[str] = ("success",),
-            at: Mapping[str, float] | None = None, epochs: int = 50, samples: int = 5000, seed: int = 0,
-            beta: float = 1.0, reweight: bool = False, policy: str | None = None,
-            tasks: Sequence[str] | None = None, batch_size: int = 200, threads: int = 1,
-            null_fits: int = 0) -> SensitivityResult:
+def analyse(
+    runs: RunSet,
+    params: Sequence[str] | None = None,
+    observations: Sequence[str] = ("success",),
+    at: Mapping[str, float] | None = None,
+    epochs: int = 50,
+    samples: int = 5000,
+    seed: int = 0,
+    beta: float = 1.0,
+    reweight: bool = False,
+    policy: str | None = None,
+    tasks: Sequence[str] | None = None,
+    batch_size: int = 200,
+    threads: int = 1,
+    null_fits: int = 0,
+) -> SensitivityResult:
     """The sensitivity analysis of one policy's episodes in `runs` (see the module docstring). With `null_fits` K,
     K more fits on the outcomes shuffled across episodes (so no parameter can matter) give each parameter's
     `null_shift`, the largest shift it shows by chance."""
     if epochs < 1 or samples < 10 or batch_size < 2 or null_fits < 0:
-        raise RoboLabError(f"--epochs {epochs}, --samples {samples}, --batch-size {batch_size}, --null {null_fits}: "
-                           "give at least 1 epoch, 10 samples, a batch of 2 and 0 null fits")  # fmt: skip
+        raise RoboLabError(
+            f"--epochs {epochs}, --samples {samples}, --batch-size {batch_size}, --null {null_fits}: "
+            "give at least 1 epoch, 10 samples, a batch of 2 and 0 null fits"
+        )
     if not math.isfinite(beta) or beta < 0:
         raise RoboLabError(f"--beta {beta}: give a weight of 0 or more for the rotation angle (RoboLab: 1)")
     inputs = prepare(runs, params, observations, beta, policy, tasks)
@@ -657,18 +774,23 @@ def analyse(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
         theta = np.column_stack([padding, theta])
     categories = [len(p.categories) for p in parameters if p.kind == "categorical"]
     outcome = np.array([x_o[name] for name in inputs.observations])
-    drawn, method, trained, seconds = fit_posterior_samples(theta, categories, inputs.x, outcome, epochs, samples,
-                                                            seed, batch_size, threads)  # fmt: skip
+    drawn, method, trained, seconds = fit_posterior_samples(
+        theta, categories, inputs.x, outcome, epochs, samples, seed, batch_size, threads
+    )
     weights = importance_weights(drawn, theta, parameters) if reweight else np.full(len(drawn), 1.0 / len(drawn))
     table = rank_table(parameters, drawn, weights, theta, uniform_reference=reweight)
     if null_fits:
         null_shift: dict[str, float] = {}
         for k in range(1, null_fits + 1):
             shuffled = inputs.x[np.random.default_rng([seed, k]).permutation(len(inputs.x))]
-            null_drawn = fit_posterior_samples(theta, categories, shuffled, outcome, epochs, samples, seed + k,
-                                               batch_size, threads)[0]  # fmt: skip
-            null_weights = (importance_weights(null_drawn, theta, parameters) if reweight
-                            else np.full(len(null_drawn), 1.0 / len(null_drawn)))  # fmt: skip
+            null_drawn = fit_posterior_samples(
+                theta, categories, shuffled, outcome, epochs, samples, seed + k, batch_size, threads
+            )[0]
+            null_weights = (
+                importance_weights(null_drawn, theta, parameters)
+                if reweight
+                else np.full(len(null_drawn), 1.0 / len(null_drawn))
+            )
             null_table = rank_table(parameters, null_drawn, null_weights, theta, uniform_reference=reweight)
             for name, value in zip(null_table["parameter"], null_table["shift"]):
                 null_shift[name] = max(null_shift.get(name, 0.0), float(value))
@@ -679,13 +801,28 @@ def analyse(runs: RunSet, params: Sequence[str] | None = None, observations: Seq
     if ess is not None and ess < 0.1 * len(drawn):
         notes.append(f"effective sample size {ess:.0f} of {len(drawn)}: the reweighted numbers rest on few samples")
     if len(keep) < len(parameters):
-        notes.append("every parameter is categorical: an independent uniform column was added for MNPE (it needs "
-                     "one continuous parameter) and left out of the results")  # fmt: skip
+        notes.append(
+            "every parameter is categorical: an independent uniform column was added for MNPE (it needs "
+            "one continuous parameter) and left out of the results"
+        )
     return SensitivityResult(
-        table=table, parameters=[parameters[i] for i in keep], samples=drawn[:, keep], weights=weights if reweight
-        else None, theta=theta[:, keep], x_o=x_o, observations=inputs.observations, method=method,
-        episodes=len(theta), epochs_trained=trained, epochs=epochs, seed=seed, fit_seconds=seconds,
-        effective_sample_size=ess, null_fits=null_fits, notes=notes)  # fmt: skip
+        table=table,
+        parameters=[parameters[i] for i in keep],
+        samples=drawn[:, keep],
+        weights=weights if reweight else None,
+        theta=theta[:, keep],
+        x_o=x_o,
+        observations=inputs.observations,
+        method=method,
+        episodes=len(theta),
+        epochs_trained=trained,
+        epochs=epochs,
+        seed=seed,
+        fit_seconds=seconds,
+        effective_sample_size=ess,
+        null_fits=null_fits,
+        notes=notes,
+    )
 
 
 # ---------------------------------------------------------------------------------------------------------- output
@@ -708,8 +845,10 @@ def to_markdown(result: SensitivityResult, timing: bool = False) -> str:
         "units.",
     ]
     if null:
-        lines.append(f"null: the largest shift of the parameter in {result.null_fits} fit(s) on outcomes shuffled "
-                     "across episodes, where no parameter matters; a shift not well above it is noise.")  # fmt: skip
+        lines.append(
+            f"null: the largest shift of the parameter in {result.null_fits} fit(s) on outcomes shuffled "
+            "across episodes, where no parameter matters; a shift not well above it is noise."
+        )
     lines += [
         "",
         "| rank | parameter | shift |" + (" null |" if null else "") + " posterior mean [95 % CI] | prior mean "
@@ -720,16 +859,23 @@ def to_markdown(result: SensitivityResult, timing: bool = False) -> str:
         shift = f"{row.shift:.3f} |" + (f" {row.null_shift:.3f} |" if null else "")
         if row.kind == "continuous":
             scale = " (log)" if row.log_scale else ""
-            lines.append(f"| {row.rank} | {row.parameter} | {shift} {row.posterior_mean:.2f} "
-                         f"[{row.ci95_low:.2f}, {row.ci95_high:.2f}] | {row.prior_mean:.2f} | {row.value_mean:.3g} "
-                         f"[{row.value_ci95_low:.3g}, {row.value_ci95_high:.3g}] | "
-                         f"{row.range_low:.3g}..{row.range_high:.3g}{scale}, {row.range_source} |")  # fmt: skip
+            lines.append(
+                f"| {row.rank} | {row.parameter} | {shift} {row.posterior_mean:.2f} "
+                f"[{row.ci95_low:.2f}, {row.ci95_high:.2f}] | {row.prior_mean:.2f} | {row.value_mean:.3g} "
+                f"[{row.value_ci95_low:.3g}, {row.value_ci95_high:.3g}] | "
+                f"{row.range_low:.3g}..{row.range_high:.3g}{scale}, {row.range_source} |"
+            )
         else:
-            lines.append(f"| {row.rank} | {row.parameter} | {shift} most probable: {row.top_category} "
-                         f"{row.top_posterior:.2f} | {row.top_prior:.2f} | - | categories |")  # fmt: skip
+            lines.append(
+                f"| {row.rank} | {row.parameter} | {shift} most probable: {row.top_category} "
+                f"{row.top_posterior:.2f} | {row.top_prior:.2f} | - | categories |"
+            )
     if result.effective_sample_size is not None:
-        lines += ["", f"Importance reweighting to the uniform prior: effective sample size "
-                      f"{result.effective_sample_size:.0f} of {len(result.samples)}."]  # fmt: skip
+        lines += [
+            "",
+            f"Importance reweighting to the uniform prior: effective sample size "
+            f"{result.effective_sample_size:.0f} of {len(result.samples)}.",
+        ]
     if timing:
         lines += ["", f"Fit: {result.fit_seconds:.1f} s (training and building the posterior, one fit)."]
     if result.notes:
@@ -772,14 +918,35 @@ def plot_marginals(result: SensitivityResult, out_stem: Path) -> list[Path]:
     for panel, i in zip(axes.flat, order):
         parameter = result.parameters[i]
         bins = _bins(parameter)
-        panel.hist(result.samples[:, i], bins=bins, weights=weights, density=True, color="#3b75af", alpha=0.65,
-                   label="posterior")  # fmt: skip
+        panel.hist(
+            result.samples[:, i],
+            bins=bins,
+            weights=weights,
+            density=True,
+            color="#3b75af",
+            alpha=0.65,
+            label="posterior",
+        )
         if result.weights is not None:  # one value per bin: the uniform density
-            panel.hist((bins[:-1] + bins[1:]) / 2, bins=bins, density=True, histtype="step", color="black",
-                       linewidth=1.4, label="prior (uniform)")  # fmt: skip
+            panel.hist(
+                (bins[:-1] + bins[1:]) / 2,
+                bins=bins,
+                density=True,
+                histtype="step",
+                color="black",
+                linewidth=1.4,
+                label="prior (uniform)",
+            )
         else:
-            panel.hist(result.theta[:, i], bins=bins, density=True, histtype="step", color="black", linewidth=1.4,
-                       label="prior (episodes' draws)")  # fmt: skip
+            panel.hist(
+                result.theta[:, i],
+                bins=bins,
+                density=True,
+                histtype="step",
+                color="black",
+                linewidth=1.4,
+                label="prior (episodes' draws)",
+            )
         ticks, labels = _tick_labels(parameter)
         panel.set_xticks(ticks, labels, rotation=30 if parameter.kind == "categorical" else 0, fontsize=8)
         panel.set_xlim(*_axis_limits(parameter))
@@ -788,7 +955,7 @@ def plot_marginals(result: SensitivityResult, out_stem: Path) -> list[Path]:
         panel.set_title(f"{parameter.name}\nshift {_shift(result, parameter.name):.2f}{null}{scale}", fontsize=9)
         panel.set_ylabel("density" if parameter.kind == "continuous" else "probability", fontsize=8)
         panel.tick_params(axis="y", labelsize=8)
-    for panel in list(axes.flat)[len(order):]:
+    for panel in list(axes.flat)[len(order) :]:
         panel.axis("off")
     axes.flat[0].legend(fontsize=7, loc="upper left")
     outcome = ", ".join(f"{name} = {value:g}" for name, value in result.x_o.items())
@@ -821,15 +988,21 @@ def plot_pairs(result: SensitivityResult, out_stem: Path, most: int = 6) -> list
                 panel.hist(result.samples[:, i], bins=_bins(first), weights=weights, color="#3b75af", alpha=0.7)
                 panel.set_yticks([])
             else:
-                panel.hist2d(result.samples[:, j], result.samples[:, i], bins=[_bins(first, 20), _bins(second, 20)],
-                             weights=weights, cmap="Blues")  # fmt: skip
+                panel.hist2d(
+                    result.samples[:, j],
+                    result.samples[:, i],
+                    bins=[_bins(first, 20), _bins(second, 20)],
+                    weights=weights,
+                    cmap="Blues",
+                )
                 panel.set_ylim(*_axis_limits(second))
                 ticks, labels = _tick_labels(second)
                 panel.set_yticks(ticks, labels if column == 0 else [], fontsize=7)
             panel.set_xlim(*_axis_limits(first))
             ticks, labels = _tick_labels(first)
-            panel.set_xticks(ticks, labels if row == count - 1 else [], fontsize=7,
-                             rotation=30 if first.kind == "categorical" else 0)  # fmt: skip
+            panel.set_xticks(
+                ticks, labels if row == count - 1 else [], fontsize=7, rotation=30 if first.kind == "categorical" else 0
+            )
             if row == count - 1:
                 panel.set_xlabel(first.name, fontsize=8)
             if column == 0 and row > 0:
@@ -871,29 +1044,53 @@ def write_outputs(result: SensitivityResult, out_dir: Path, pairs: int = 6) -> l
 
 def add_arguments(parser: Any) -> None:
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="results folders of `robolab eval --vary ...`")
-    parser.add_argument("--params", nargs="+", metavar="NAME",
-                        help="parameters to analyse, comma- or space-separated (default: every recorded variation "
-                             "field with more than one value; cameras as cam_<camera>_dist)")  # fmt: skip
-    parser.add_argument("--obs", nargs="+", default=["success"], metavar="NAME",
-                        help="outcomes: success, duration (seconds), score, progress, steps or any numeric column "
-                             "(default: success)")  # fmt: skip
-    parser.add_argument("--at", nargs="+", metavar="OBS=VALUE",
-                        help="the outcome to explain, e.g. success=0 (default: success=1; other outcomes at their "
-                             "median over the matching episodes)")  # fmt: skip
+    parser.add_argument(
+        "--params",
+        nargs="+",
+        metavar="NAME",
+        help="parameters to analyse, comma- or space-separated (default: every recorded variation "
+        "field with more than one value; cameras as cam_<camera>_dist)",
+    )
+    parser.add_argument(
+        "--obs",
+        nargs="+",
+        default=["success"],
+        metavar="NAME",
+        help="outcomes: success, duration (seconds), score, progress, steps or any numeric column (default: success)",
+    )
+    parser.add_argument(
+        "--at",
+        nargs="+",
+        metavar="OBS=VALUE",
+        help="the outcome to explain, e.g. success=0 (default: success=1; other outcomes at their "
+        "median over the matching episodes)",
+    )
     parser.add_argument("--policy", help="the policy to analyse when the folders hold several")
     parser.add_argument("--task", nargs="+", metavar="TASK", help="only these tasks' episodes")
     parser.add_argument("--epochs", type=int, default=50, help="most training epochs (default 50, as RoboLab)")
     parser.add_argument("--samples", type=int, default=5000, help="posterior samples (default 5000)")
     parser.add_argument("--batch-size", type=int, default=200, help="training batch size (default 200, sbi's)")
-    parser.add_argument("--beta", type=float, default=1.0,
-                        help="metres per radian in the camera distance ||dt|| + beta x angle (default 1)")
-    parser.add_argument("--reweight", action="store_true",
-                        help="importance-weight the samples to the uniform prior (Gaussian KDE of the drawn "
-                             "parameters) and report the effective sample size")  # fmt: skip
+    parser.add_argument(
+        "--beta",
+        type=float,
+        default=1.0,
+        help="metres per radian in the camera distance ||dt|| + beta x angle (default 1)",
+    )
+    parser.add_argument(
+        "--reweight",
+        action="store_true",
+        help="importance-weight the samples to the uniform prior (Gaussian KDE of the drawn "
+        "parameters) and report the effective sample size",
+    )
     parser.add_argument("--pairs", type=int, default=6, help="parameters in the pairwise plot (default 6)")
-    parser.add_argument("--null", type=int, default=0, metavar="K",
-                        help="K more fits on outcomes shuffled across episodes, for each parameter's chance level "
-                             "of shift (default 0; each costs one fit)")  # fmt: skip
+    parser.add_argument(
+        "--null",
+        type=int,
+        default=0,
+        metavar="K",
+        help="K more fits on outcomes shuffled across episodes, for each parameter's chance level "
+        "of shift (default 0; each costs one fit)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of training and sampling (default 0)")
     parser.add_argument("--threads", type=int, default=1, help="torch threads for the fit (default 1)")
     parser.add_argument("--out", help="folder for the table, samples and plots (default: RUN_DIR/sensitivity)")
@@ -907,9 +1104,22 @@ def run(args: Any) -> int:
         raise RoboLabError(f"--pairs {args.pairs}, --threads {args.threads}: give at least 1")
     runs = load_runs(args.runs)
     out_dir = make_folder(Path(args.out) if args.out else Path(args.runs[0]) / "sensitivity", "--out")
-    result = analyse(runs, args.params, args.obs, parse_at(args.at), args.epochs, args.samples, args.seed,
-                     args.beta, args.reweight, args.policy, args.task, args.batch_size, args.threads,
-                     args.null)  # fmt: skip
+    result = analyse(
+        runs,
+        args.params,
+        args.obs,
+        parse_at(args.at),
+        args.epochs,
+        args.samples,
+        args.seed,
+        args.beta,
+        args.reweight,
+        args.policy,
+        args.task,
+        args.batch_size,
+        args.threads,
+        args.null,
+    )
     paths = write_outputs(result, out_dir, args.pairs)
     print(to_markdown(result, timing=True), end="")
     print(f"\nwrote {', '.join(str(p) for p in paths)}")

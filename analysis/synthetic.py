@@ -28,8 +28,11 @@ from robolab_ms.tasks.spec import CONTROL_HZ
 ParamSpace = Mapping[str, "tuple[float, float] | Sequence[str]"]
 SuccessModel = Callable[[str, dict], float]  # (task, drawn parameters) -> probability of success
 
-LIGHT_SPACE: dict = {"light_intensity": (0.05, 3.0), "cam_external_left_dx": (-0.2, 0.2),
-                     "light_color": ["white", "warm", "cool", "red", "green", "blue"]}  # fmt: skip
+LIGHT_SPACE: dict = {
+    "light_intensity": (0.05, 3.0),
+    "cam_external_left_dx": (-0.2, 0.2),
+    "light_color": ["white", "warm", "cool", "red", "green", "blue"],
+}
 
 
 def light_dependent_success(task: str, params: dict) -> float:
@@ -48,8 +51,16 @@ def draw_params(space: ParamSpace, rng: np.random.Generator) -> dict:
     return drawn
 
 
-def synthetic_episode(task: str, seed: int, success_probability: float, rng: np.random.Generator, policy: str,
-                      max_steps: int = 900, params: dict | None = None, variant: str = "default") -> EpisodeResult:
+def synthetic_episode(
+    task: str,
+    seed: int,
+    success_probability: float,
+    rng: np.random.Generator,
+    policy: str,
+    max_steps: int = 900,
+    params: dict | None = None,
+    variant: str = "default",
+) -> EpisodeResult:
     """One made-up episode whose success is drawn with `success_probability`; other fields plausible."""
     success = bool(rng.random() < success_probability)
     success_step = int(rng.integers(max_steps // 10, max_steps // 2)) if success else None
@@ -57,28 +68,56 @@ def synthetic_episode(task: str, seed: int, success_probability: float, rng: np.
     progress = 1.0 if success else float(rng.choice([0.0, 0.0, 0.5]))
     score = 1.0 if success else round(progress * float(rng.uniform(0.5, 1.0)), 3)
     wrong = int(rng.poisson(0.3 if success else 0.8))
-    events = [{"step": int(rng.integers(1, steps)), "type": "wrong_object_grasped", "object": "distractor"}
-              for _ in range(wrong)]  # fmt: skip
+    events = [
+        {"step": int(rng.integers(1, steps)), "type": "wrong_object_grasped", "object": "distractor"}
+        for _ in range(wrong)
+    ]
     path = float(rng.uniform(0.4, 1.5)) * (steps / max_steps + 0.5)
-    metrics = {"ee_sparc": float(-rng.uniform(3, 12)), "joint_sparc_mean": float(-rng.uniform(3, 12)),
-               "ee_isj": float(rng.uniform(10, 500)), "joint_isj": float(rng.uniform(10, 500)),
-               "ee_path_length": path, "ee_speed_mean": path / (steps / CONTROL_HZ),
-               "ee_speed_max": float(rng.uniform(0.2, 0.6)), "joint_rmse_mean": float(rng.uniform(0.01, 0.05)),
-               "joint_tracking_max": float(rng.uniform(0.05, 0.2))}  # fmt: skip
+    metrics = {
+        "ee_sparc": float(-rng.uniform(3, 12)),
+        "joint_sparc_mean": float(-rng.uniform(3, 12)),
+        "ee_isj": float(rng.uniform(10, 500)),
+        "joint_isj": float(rng.uniform(10, 500)),
+        "ee_path_length": path,
+        "ee_speed_mean": path / (steps / CONTROL_HZ),
+        "ee_speed_max": float(rng.uniform(0.2, 0.6)),
+        "joint_rmse_mean": float(rng.uniform(0.01, 0.05)),
+        "joint_tracking_max": float(rng.uniform(0.05, 0.2)),
+    }
     return EpisodeResult(
-        task=task, instruction_variant=variant, instruction=f"(synthetic) {task}", robot="droid", policy=policy,
-        seed=seed, success=success, score=score, progress=progress, steps=steps, max_steps=max_steps,
-        success_step=success_step, wall_seconds=0.0, events=sorted(events, key=lambda e: e["step"]), metrics=metrics,
+        task=task,
+        instruction_variant=variant,
+        instruction=f"(synthetic) {task}",
+        robot="droid",
+        policy=policy,
+        seed=seed,
+        success=success,
+        score=score,
+        progress=progress,
+        steps=steps,
+        max_steps=max_steps,
+        success_step=success_step,
+        wall_seconds=0.0,
+        events=sorted(events, key=lambda e: e["step"]),
+        metrics=metrics,
         event_counts={"wrong_object_grasped": wrong} if wrong else {},
         event_objects={"wrong_object_grasped": ["distractor"]} if wrong else {},
-        variations="synthetic" if params else None, variation=dict(params or {}),
-    )  # fmt: skip
+        variations="synthetic" if params else None,
+        variation=dict(params or {}),
+    )
 
 
-def write_synthetic_run(out_dir: str | Path, policy: str, tasks: Sequence[str], episodes_per_task: int,
-                        success: float | Mapping[str, float] | SuccessModel, seed: int = 0,
-                        params: ParamSpace | None = None, variants: Sequence[str] = ("default",),
-                        max_steps: int = 900) -> Path:
+def write_synthetic_run(
+    out_dir: str | Path,
+    policy: str,
+    tasks: Sequence[str],
+    episodes_per_task: int,
+    success: float | Mapping[str, float] | SuccessModel,
+    seed: int = 0,
+    params: ParamSpace | None = None,
+    variants: Sequence[str] = ("default",),
+    max_steps: int = 900,
+) -> Path:
     """Write a results folder of made-up episodes: for every task, variant and seed 0..episodes_per_task-1, one
     episode whose success is drawn with probability `success` (one number, one per task, or a function of the task
     and the drawn `params`). The same `seed` gives the same folder; the draws for a (task, variant, episode seed)
@@ -98,12 +137,19 @@ def write_synthetic_run(out_dir: str | Path, policy: str, tasks: Sequence[str], 
                 else:
                     probability = float(success)
                 outcome_rng = np.random.default_rng([*key, _stable_hash(policy)])
-                episode = synthetic_episode(task, episode_seed, probability, outcome_rng, policy, max_steps, drawn,
-                                            variant)  # fmt: skip
+                episode = synthetic_episode(
+                    task, episode_seed, probability, outcome_rng, policy, max_steps, drawn, variant
+                )
                 lines.append(json.dumps(asdict(episode), sort_keys=True) + "\n")
     (out / EPISODES_FILE).write_text("".join(lines), encoding="utf-8")  # the results format, written at once
-    manifest = {"synthetic": True, "policy": policy, "tasks": list(tasks), "episodes_per_task": episodes_per_task,
-                "seed": seed, "params": {k: list(v) for k, v in (params or {}).items()}}  # fmt: skip
+    manifest = {
+        "synthetic": True,
+        "policy": policy,
+        "tasks": list(tasks),
+        "episodes_per_task": episodes_per_task,
+        "seed": seed,
+        "params": {k: list(v) for k, v in (params or {}).items()},
+    }
     (out / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
     return out
 
@@ -116,9 +162,17 @@ def paired_episode_frame(rng: np.random.Generator, rate_a: np.ndarray, rate_b: n
     seeds = np.tile(np.arange(pairs), len(rate_a))
     a = rng.random(len(tasks)) < np.repeat(rate_a, pairs)
     b = rng.random(len(tasks)) < np.repeat(rate_b, pairs)
-    return pd.DataFrame({"task": np.concatenate([tasks, tasks]), "instruction_variant": "default", "robot": "droid",
-                         "seed": np.concatenate([seeds, seeds]), "policy": ["a"] * len(tasks) + ["b"] * len(tasks),
-                         "run": ["ra"] * len(tasks) + ["rb"] * len(tasks), "success": np.concatenate([a, b])})  # fmt: skip
+    return pd.DataFrame(
+        {
+            "task": np.concatenate([tasks, tasks]),
+            "instruction_variant": "default",
+            "robot": "droid",
+            "seed": np.concatenate([seeds, seeds]),
+            "policy": ["a"] * len(tasks) + ["b"] * len(tasks),
+            "run": ["ra"] * len(tasks) + ["rb"] * len(tasks),
+            "success": np.concatenate([a, b]),
+        }
+    )
 
 
 def _stable_hash(text: str) -> int:
@@ -133,19 +187,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m robolab_ms.analysis.synthetic",
         description="Write a results folder of made-up episodes with a known success rate, to try or check the "
-                    "analysis commands (robolab analyze / sensitivity / leaderboard) without running a policy.")  # fmt: skip
+        "analysis commands (robolab analyze / sensitivity / leaderboard) without running a policy.",
+    )
     parser.add_argument("out", help="results folder to write (its episodes.jsonl is replaced)")
     parser.add_argument("--policy", default="synthetic", help="policy name on every line (default: synthetic)")
-    parser.add_argument("--success", type=float, default=0.5,
-                        help="probability of success of every episode (default: 0.5)")
-    parser.add_argument("--tasks", nargs="+", metavar="TASK",
-                        help="task names (default: every known task)")  # fmt: skip
+    parser.add_argument(
+        "--success", type=float, default=0.5, help="probability of success of every episode (default: 0.5)"
+    )
+    parser.add_argument("--tasks", nargs="+", metavar="TASK", help="task names (default: every known task)")
     parser.add_argument("--episodes", type=int, default=10, help="episodes per task and variant (default: 10)")
     parser.add_argument("--variants", nargs="+", default=["default"], help="instruction variants (default: default)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default: 0)")
-    parser.add_argument("--vary-light", action="store_true",
-                        help="draw light_intensity, light_color and cam_external_left_dx per episode and make "
-                             "success depend on light_intensity only (ignores --success)")  # fmt: skip
+    parser.add_argument(
+        "--vary-light",
+        action="store_true",
+        help="draw light_intensity, light_color and cam_external_left_dx per episode and make "
+        "success depend on light_intensity only (ignores --success)",
+    )
     args = parser.parse_args(argv)
     if not 0.0 <= args.success <= 1.0 or math.isnan(args.success):
         parser.error(f"--success {args.success}: give a probability between 0 and 1")
@@ -158,11 +216,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         tasks = list(task_table().index)
     if args.vary_light:
-        out = write_synthetic_run(args.out, args.policy, tasks, args.episodes, light_dependent_success, args.seed,
-                                  LIGHT_SPACE, args.variants)  # fmt: skip
+        out = write_synthetic_run(
+            args.out, args.policy, tasks, args.episodes, light_dependent_success, args.seed, LIGHT_SPACE, args.variants
+        )
     else:
-        out = write_synthetic_run(args.out, args.policy, tasks, args.episodes, args.success, args.seed,
-                                  variants=args.variants)  # fmt: skip
+        out = write_synthetic_run(
+            args.out, args.policy, tasks, args.episodes, args.success, args.seed, variants=args.variants
+        )
     print(f"wrote {len(tasks) * len(args.variants) * args.episodes} synthetic episodes to {out / EPISODES_FILE}")
     return 0
 

@@ -49,8 +49,17 @@ LEGACY_METRIC_COLUMNS = (
     ("ee_speed_max_v1", "ee_speed_max_v1_cm_s", 100.0),
     ("joint_tracking_rmse_v1", "joint_tracking_rmse_v1_rad", 1.0),
 )
-OUTCOME_COLUMNS = ("episodes", "success_%", "success_ci95_low_%", "success_ci95_high_%", "score", "score_fail",
-                   "progress", "mean_steps", "errors")  # fmt: skip
+OUTCOME_COLUMNS = (
+    "episodes",
+    "success_%",
+    "success_ci95_low_%",
+    "success_ci95_high_%",
+    "score",
+    "score_fail",
+    "progress",
+    "mean_steps",
+    "errors",
+)
 
 
 def success_interval(successes: int, episodes: int, level: float = 0.95) -> tuple[float, float]:
@@ -106,8 +115,11 @@ def episode_frame(results: Sequence[EpisodeResult]) -> pd.DataFrame:
     legacy_present = {key for result in results for key in (result.metrics or {})}
     legacy = [entry for entry in LEGACY_METRIC_COLUMNS if entry[0] in legacy_present]
     for result in results:
-        row = {key: value for key, value in asdict(result).items() if key not in ("metrics", "event_counts",
-                                                                               "event_objects", "events", "variation")}  # fmt: skip
+        row = {
+            key: value
+            for key, value in asdict(result).items()
+            if key not in ("metrics", "event_counts", "event_objects", "events", "variation")
+        }
         row.update(getattr(result, "variation", None) or {})  # drawn variation parameters, one column each
         for key, column, factor in (*METRIC_COLUMNS, *legacy):
             value = (result.metrics or {}).get(key)
@@ -133,8 +145,9 @@ def summarize(results: Sequence[EpisodeResult]) -> pd.DataFrame:
     keys = KEYS
     rows = [{**dict(zip(keys, key)), **_summary_row(group)} for key, group in frame.groupby(keys, sort=True)]
     for (policy, robot), group in frame.groupby(["policy", "robot"], sort=True):
-        rows.append({"policy": policy, "robot": robot, "task": "ALL", "instruction_variant": "all",
-                     **_summary_row(group)})  # fmt: skip
+        rows.append(
+            {"policy": policy, "robot": robot, "task": "ALL", "instruction_variant": "all", **_summary_row(group)}
+        )
     return pd.DataFrame(rows)
 
 
@@ -179,8 +192,13 @@ def summary_markdown(table: pd.DataFrame) -> str:
     for kind in EVENT_TYPES:
         if table[kind].fillna(0).any():
             events[kind] = _mean_sd(table, kind, 2)
-    parts = ["## Outcomes\n", to_markdown(outcomes), "\n## Trajectory (mean ± sd over episodes; SPARC: closer to 0 is "
-             "smoother)\n", to_markdown(trajectory), "\n## Events (count per episode, mean ± sd)\n"]  # fmt: skip
+    parts = [
+        "## Outcomes\n",
+        to_markdown(outcomes),
+        "\n## Trajectory (mean ± sd over episodes; SPARC: closer to 0 is smoother)\n",
+        to_markdown(trajectory),
+        "\n## Events (count per episode, mean ± sd)\n",
+    ]
     parts.append(to_markdown(events) if len(events.columns) > len(KEYS) else "_no events_\n")
     return "".join(parts)
 

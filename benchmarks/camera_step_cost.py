@@ -104,8 +104,11 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=60, help="control steps per timed block")
     parser.add_argument("--rounds", type=int, default=5, help="timed blocks of each kind")
     parser.add_argument("--shadow-map", type=int, default=None, help="shadow map size (default: the builder's)")
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.steps, args.rounds = 2, 1
@@ -131,15 +134,21 @@ def main() -> None:
         a, b, c = block(ours), block(bare), block(old)
         ours_sps.append(a), bare_sps.append(b), old_sps.append(c), ratios.append(a / b), look_ratios.append(b / c)
     median = statistics.median
-    print(f"task {TASK}, robot droid, cameras external_left + wrist at 320x180, {args.steps} steps x {args.rounds} rounds,"
-          f" shadow map {RoboLabSceneBuilder.shadow_map_size} px")
+    print(
+        f"task {TASK}, robot droid, cameras external_left + wrist at 320x180, {args.steps} steps x {args.rounds} rounds,"
+        f" shadow map {RoboLabSceneBuilder.shadow_map_size} px"
+    )
     print(f"RoboLab env:                  median {median(ours_sps):.1f} steps/s")
     print(f"bare ManiSkill env, same look: median {median(bare_sps):.1f} steps/s")
     print(f"bare env, old flat look:       median {median(old_sps):.1f} steps/s")
-    print(f"ratio ours / bare (target >= 0.85): median {median(ratios):.3f}  (min {min(ratios):.3f}, max {max(ratios):.3f})")
+    print(
+        f"ratio ours / bare (target >= 0.85): median {median(ratios):.3f}  (min {min(ratios):.3f}, max {max(ratios):.3f})"
+    )
     cost = 1000 / median(bare_sps) - 1000 / median(old_sps)
-    print(f"the new look (room, textures, shadows) vs the old: {median(look_ratios):.3f} x the old step rate, "
-          f"{cost:+.1f} ms per step")
+    print(
+        f"the new look (room, textures, shadows) vs the old: {median(look_ratios):.3f} x the old step rate, "
+        f"{cost:+.1f} ms per step"
+    )
 
 
 if __name__ == "__main__":

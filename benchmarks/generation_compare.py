@@ -39,8 +39,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", default="results/generation_compare")
     parser.add_argument("--doc", default="docs/generation.md")
     parser.add_argument("--images", default="docs/images/generation")
-    parser.add_argument("--quick", action="store_true", help="smallest settings: the first prompt only, no doc or "
-                        "picture written; only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: the first prompt only, no doc or "
+        "picture written; only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -54,25 +58,41 @@ def main(argv: list[str] | None = None) -> int:
     for theme, texts in prompts.items():
         for number, prompt in enumerate(texts):
             answer, _ = model.ask_json("", [{"role": "user", "content": prompt}])
-            requested = [r for r in read_proposal(answer, catalog).relations if r.kind not in ("random_yaw", "anywhere")]
+            requested = [
+                r for r in read_proposal(answer, catalog).relations if r.kind not in ("random_yaw", "anywhere")
+            ]
             for method in ("solver", "grid"):
                 file = out / method / f"{theme}_{number}.yaml"
                 file.parent.mkdir(parents=True, exist_ok=True)
-                result = generate_scene(prompt, file, model, method=method, render=False, catalog=catalog,
-                                        requested=requested)  # fmt: skip
+                result = generate_scene(
+                    prompt, file, model, method=method, render=False, catalog=catalog, requested=requested
+                )
                 settled = result.settled
-                row = {"theme": theme, "prompt": number, "method": method, "accepted": int(result.accepted),
-                       "rounds": result.rounds, "requested": len(requested), "satisfied": result.satisfied(),
-                       "stable": int(bool(settled and settled.stable)), "asked_objects": len(answer["objects"]),
-                       "placed": result.placed(), "collisions": result.collisions,
-                       "max_drift_cm": round(max(settled.drift.values()) * 100, 2) if settled else "",
-                       "seconds": round(result.seconds, 2), "file": str(file) if result.scene_file else "",
-                       "problems": " | ".join(result.problems),
-                       "holds": settled.holds.get("requested", []) if settled else [False] * len(requested)}  # fmt: skip
+                row = {
+                    "theme": theme,
+                    "prompt": number,
+                    "method": method,
+                    "accepted": int(result.accepted),
+                    "rounds": result.rounds,
+                    "requested": len(requested),
+                    "satisfied": result.satisfied(),
+                    "stable": int(bool(settled and settled.stable)),
+                    "asked_objects": len(answer["objects"]),
+                    "placed": result.placed(),
+                    "collisions": result.collisions,
+                    "max_drift_cm": round(max(settled.drift.values()) * 100, 2) if settled else "",
+                    "seconds": round(result.seconds, 2),
+                    "file": str(file) if result.scene_file else "",
+                    "problems": " | ".join(result.problems),
+                    "holds": settled.holds.get("requested", []) if settled else [False] * len(requested),
+                }
                 rows.append(row)
-                print(f"{theme}/{number} {method}: {row['satisfied']}/{row['requested']} relations, "
-                      f"stable {row['stable']}, placed {row['placed']}/{row['asked_objects']}, "
-                      f"collisions {row['collisions']}, {row['seconds']} s", flush=True)  # fmt: skip
+                print(
+                    f"{theme}/{number} {method}: {row['satisfied']}/{row['requested']} relations, "
+                    f"stable {row['stable']}, placed {row['placed']}/{row['asked_objects']}, "
+                    f"collisions {row['collisions']}, {row['seconds']} s",
+                    flush=True,
+                )
     with (out / "rows.csv").open("w", newline="", encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=[key for key in rows[0] if key != "holds"], extrasaction="ignore")
         writer.writeheader()
@@ -93,14 +113,18 @@ def ratio_line(rows: list[dict]) -> str:
         mine = [row for row in rows if row["method"] == method]
         shares[method] = sum(r["satisfied"] for r in mine) / max(sum(r["requested"] for r in mine), 1)
     ratio = f"{shares['solver'] / shares['grid']:.2f}" if shares["grid"] else "inf (the baseline satisfied none)"
-    return (f"ratio ours / grid baseline, requested relations satisfied after settling: {shares['solver']:.2f} / "
-            f"{shares['grid']:.2f} = {ratio}")
+    return (
+        f"ratio ours / grid baseline, requested relations satisfied after settling: {shares['solver']:.2f} / "
+        f"{shares['grid']:.2f} = {ratio}"
+    )
 
 
 def render_tables(rows: list[dict]) -> str:
-    lines = ["| method | relations satisfied after settling | stable scenes | objects placed | collisions at "
-             "placement (pairs per scene) | scenes written | time per scene (s, median) |",
-             "|---|---|---|---|---|---|---|"]  # fmt: skip
+    lines = [
+        "| method | relations satisfied after settling | stable scenes | objects placed | collisions at "
+        "placement (pairs per scene) | scenes written | time per scene (s, median) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for method in ("solver", "grid"):
         mine = [row for row in rows if row["method"] == method]
         satisfied, requested = sum(r["satisfied"] for r in mine), sum(r["requested"] for r in mine)
@@ -110,9 +134,11 @@ def render_tables(rows: list[dict]) -> str:
         collisions = statistics.mean(r["collisions"] for r in mine)
         seconds = statistics.median(r["seconds"] for r in mine)
         label = "ours (`--method solver`)" if method == "solver" else "RoboLab's baseline (`--method grid`)"
-        lines.append(f"| {label} | {satisfied}/{requested} ({100 * satisfied / requested:.0f} %) | {stable}/{len(mine)} "
-                     f"({100 * stable / len(mine):.0f} %) | {placed}/{asked} ({100 * placed / asked:.0f} %) | "
-                     f"{collisions:.2f} | {written}/{len(mine)} | {seconds:.2f} |")  # fmt: skip
+        lines.append(
+            f"| {label} | {satisfied}/{requested} ({100 * satisfied / requested:.0f} %) | {stable}/{len(mine)} "
+            f"({100 * stable / len(mine):.0f} %) | {placed}/{asked} ({100 * placed / asked:.0f} %) | "
+            f"{collisions:.2f} | {written}/{len(mine)} | {seconds:.2f} |"
+        )
     lines += ["", "Per relation kind (satisfied / requested, both methods on the same relations):", ""]
     return "\n".join(lines) + "\n" + kinds_table(rows)
 
@@ -126,7 +152,9 @@ def kinds_table(rows: list[dict]) -> str:
     for theme, texts in prompts.items():
         for number, prompt in enumerate(texts):
             answer, _ = model.ask_json("", [{"role": "user", "content": prompt}])
-            kinds = [r.kind for r in read_proposal(answer, catalog).relations if r.kind not in ("random_yaw", "anywhere")]
+            kinds = [
+                r.kind for r in read_proposal(answer, catalog).relations if r.kind not in ("random_yaw", "anywhere")
+            ]
             for method in ("solver", "grid"):
                 if (theme, number, method) not in by_key:
                     continue  # a prompt left out of this run
@@ -166,18 +194,23 @@ def picture_grid(rows: list[dict], prompts: dict, out: Path, images: Path) -> No
         for line, method in enumerate(("solver", "grid")):
             row = by_key[(theme, number, method)]
             x, y = column * TILE[0], line * (TILE[1] + label_height)
-            caption = (f"{'ours' if method == 'solver' else 'grid'}: {theme.replace('_', ' ')} {number + 1}, "
-                       f"{row['satisfied']}/{row['requested']} relations")  # fmt: skip
+            caption = (
+                f"{'ours' if method == 'solver' else 'grid'}: {theme.replace('_', ' ')} {number + 1}, "
+                f"{row['satisfied']}/{row['requested']} relations"
+            )
             draw.text((x + 4, y + 3), caption, fill=(0, 0, 0))
-            draw.text((x + 4, y + 15), f"drift {row['max_drift_cm']} cm, collisions {row['collisions']}",
-                      fill=(60, 60, 60))  # fmt: skip
+            draw.text(
+                (x + 4, y + 15), f"drift {row['max_drift_cm']} cm, collisions {row['collisions']}", fill=(60, 60, 60)
+            )
             if row["file"]:
                 with tempfile.TemporaryDirectory() as folder:
                     png = render_preview(Path(row["file"]), Path(folder) / "preview.png")
                     tile = Image.open(png).convert("RGB").resize(TILE, Image.LANCZOS)
                 sheet.paste(tile, (x, y + label_height))
             else:
-                draw.rectangle([x, y + label_height, x + TILE[0] - 1, y + label_height + TILE[1] - 1], fill=(200, 200, 200))
+                draw.rectangle(
+                    [x, y + label_height, x + TILE[0] - 1, y + label_height + TILE[1] - 1], fill=(200, 200, 200)
+                )
                 draw.text((x + 10, y + label_height + 80), "not a valid scene file (overlaps)", fill=(0, 0, 0))
     path = images / "solver_vs_grid.png"
     sheet.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)

@@ -32,11 +32,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default: 2)")
     parser.add_argument("--seed", type=int, default=0, help="the episode seed of every task (default: 0)")
-    parser.add_argument("--out", type=Path, default=None, help="results folder (default: results/oracle_sweep; "
-                        "with --quick a temporary one)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="results folder (default: results/oracle_sweep; with --quick a temporary one)",
+    )
     parser.add_argument("--task", nargs="+", help="only these tasks (default: every task)")
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.task, args.workers = [BASELINE_TASK], 1
@@ -53,16 +60,24 @@ def sweep(args: argparse.Namespace, out: Path) -> None:
 
     with tempfile.TemporaryDirectory() as scratch:
         start = time.perf_counter()
-        baseline = run_evaluation(make_policy("oracle"), EvalConfig(tasks=(BASELINE_TASK,), episodes=1,
-                                  first_seed=args.seed), Path(scratch), show_progress=False)  # fmt: skip
+        baseline = run_evaluation(
+            make_policy("oracle"),
+            EvalConfig(tasks=(BASELINE_TASK,), episodes=1, first_seed=args.seed),
+            Path(scratch),
+            show_progress=False,
+        )
         baseline_seconds = time.perf_counter() - start
-    print(f"baseline: one {BASELINE_TASK} oracle episode, environment build included: {baseline_seconds:.1f} s "
-          f"({'solved' if baseline[0].success else 'NOT solved'})", flush=True)  # fmt: skip
+    print(
+        f"baseline: one {BASELINE_TASK} oracle episode, environment build included: {baseline_seconds:.1f} s "
+        f"({'solved' if baseline[0].success else 'NOT solved'})",
+        flush=True,
+    )
 
     config = EvalConfig(tasks=tasks, episodes=1, first_seed=args.seed)
     start = time.perf_counter()
-    results = run_parallel(make_policy("oracle"), PolicySpec("oracle", PolicyOptions()), config, out,
-                           workers=args.workers)  # fmt: skip
+    results = run_parallel(
+        make_policy("oracle"), PolicySpec("oracle", PolicyOptions()), config, out, workers=args.workers
+    )
     seconds = time.perf_counter() - start
     results = [r for r in results if r.seed == args.seed and r.task in tasks]
     out.mkdir(parents=True, exist_ok=True)
@@ -80,13 +95,18 @@ def sweep(args: argparse.Namespace, out: Path) -> None:
         verdict = f"target {TARGET_MINUTES:g} min for every task: {'met' if minutes <= TARGET_MINUTES else 'MISSED'}"
     else:
         verdict = f"{len(tasks)} of {len(task_names())} tasks; the {TARGET_MINUTES:g}-min target is for all of them"
-    print(f"sweep: {len(results)} tasks, one oracle episode each, {args.workers} workers: {minutes:.1f} min "
-          f"({verdict})")  # fmt: skip
+    print(
+        f"sweep: {len(results)} tasks, one oracle episode each, {args.workers} workers: {minutes:.1f} min ({verdict})"
+    )
     print(f"ratio sweep / baseline episode: {seconds / baseline_seconds:.1f} (the sweep's time in baseline episodes)")
-    print(f"solved: {solved} of {len(results)}; errors: {errors}; "
-          f"summed episode time {sum(r.wall_seconds for r in results) / 60:.1f} min")  # fmt: skip
-    print("slowest:", ", ".join(f"{r.task} {r.wall_seconds:.0f} s" for r in
-                                sorted(results, key=lambda r: -r.wall_seconds)[:8]))  # fmt: skip
+    print(
+        f"solved: {solved} of {len(results)}; errors: {errors}; "
+        f"summed episode time {sum(r.wall_seconds for r in results) / 60:.1f} min"
+    )
+    print(
+        "slowest:",
+        ", ".join(f"{r.task} {r.wall_seconds:.0f} s" for r in sorted(results, key=lambda r: -r.wall_seconds)[:8]),
+    )
     print(f"table: {table}")
 
 

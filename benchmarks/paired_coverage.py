@@ -31,8 +31,9 @@ def interval_coverage(tasks: int, pairs: int, repetitions: int, resamples: int) 
     for repetition in range(repetitions):
         rate_a = rng.uniform(0.45, 0.95, tasks)
         gap = rng.uniform(0.0, 0.4, tasks)
-        result = compare_policies(paired_episode_frame(rng, rate_a, rate_a - gap, pairs), "a", "b",
-                                  resamples=resamples, seed=repetition)  # fmt: skip
+        result = compare_policies(
+            paired_episode_frame(rng, rate_a, rate_a - gap, pairs), "a", "b", resamples=resamples, seed=repetition
+        )
         low, high = result.overall["ci_low_%"], result.overall["ci_high_%"]
         population += low <= 100 * POPULATION_DIFFERENCE <= high
         sample += low <= 100 * gap.mean() <= high
@@ -54,8 +55,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repetitions", type=int, default=300)
     parser.add_argument("--resamples", type=int, default=2000)
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     settings, mcnemar_pairs, mcnemar_tasks = SETTINGS, (10, 20, 30, 50), 2000
     if args.quick:
@@ -74,8 +78,10 @@ def main() -> None:
         shares = [mcnemar_rejections(pairs, a, b, mcnemar_tasks) for a, b in ((0.6, 0.6), (0.7, 0.5), (0.9, 0.3))]
         print(f"| {pairs} | " + " | ".join(f"{share:.3f}" for share in shares) + " |", flush=True)
     overall, per_task = (sum(c[i] for c in coverages) / len(coverages) for i in (0, 1))
-    print(f"\nratio of 95 % intervals holding the truth, mean over the settings: overall {overall:.3f}, "
-          f"per task {per_task:.3f} (nominal 0.95)")
+    print(
+        f"\nratio of 95 % intervals holding the truth, mean over the settings: overall {overall:.3f}, "
+        f"per task {per_task:.3f} (nominal 0.95)"
+    )
 
 
 if __name__ == "__main__":

@@ -41,15 +41,24 @@ def measure(label: str, workers: int, ray: bool, config: EvalConfig, root: Path)
     if workers == 1 and not ray:
         results = run_evaluation(policy, config, out, show_progress=False)
     else:
-        results = run_parallel(policy, PolicySpec("random", PolicyOptions()), config, out, workers=workers,
-                               ray="local" if ray else None, show_progress=False)  # fmt: skip
+        results = run_parallel(
+            policy,
+            PolicySpec("random", PolicyOptions()),
+            config,
+            out,
+            workers=workers,
+            ray="local" if ray else None,
+            show_progress=False,
+        )
     seconds = time.perf_counter() - start
     episodes = len(config.tasks) * config.episodes
     assert len(results) == episodes and not any(r.error for r in results), f"{label}: episodes missing or errored"
     whole = episodes / seconds
     steady = workers / statistics.mean(r.wall_seconds for r in results)
-    print(f"{label:>18}: {whole:6.3f} episodes/s whole run ({seconds:6.1f} s), {steady:6.3f} episodes/s steady",
-          flush=True)  # fmt: skip
+    print(
+        f"{label:>18}: {whole:6.3f} episodes/s whole run ({seconds:6.1f} s), {steady:6.3f} episodes/s steady",
+        flush=True,
+    )
     return whole, steady
 
 
@@ -65,7 +74,9 @@ def available_parallelism(processes: int = 2) -> float:
     import sys
 
     def run(count: int) -> float:
-        started = [subprocess.Popen([sys.executable, "-c", SPIN], stdout=subprocess.PIPE, text=True) for _ in range(count)]
+        started = [
+            subprocess.Popen([sys.executable, "-c", SPIN], stdout=subprocess.PIPE, text=True) for _ in range(count)
+        ]
         return max(float(process.communicate()[0]) for process in started)
 
     alone = run(1)
@@ -78,30 +89,45 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=24)
     parser.add_argument("--max-steps", type=int, default=60, help="control steps per episode")
     parser.add_argument("--rounds", type=int, default=2, help="times each mode runs (the median counts)")
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.episodes, args.max_steps, args.rounds = 2, 3, 1
 
     config = EvalConfig(tasks=(args.task,), episodes=args.episodes, max_steps=args.max_steps)
-    print(f"{args.episodes} episodes of {args.task}, {args.max_steps} steps each, random policy; "
-          f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}; cores this session gets with 2 "
-          f"processes: {available_parallelism():.2f}", flush=True)  # fmt: skip
+    print(
+        f"{args.episodes} episodes of {args.task}, {args.max_steps} steps each, random policy; "
+        f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}; cores this session gets with 2 "
+        f"processes: {available_parallelism():.2f}",
+        flush=True,
+    )
     modes = {"--workers 1": (1, False), "--workers 2": (2, False), "--ray local -w 2": (2, True)}
     rates: dict[str, list[tuple[float, float]]] = {label: [] for label in modes}
     with tempfile.TemporaryDirectory(prefix="parallel-eval-cost-") as folder:
         for round_index in range(args.rounds):
             for label, (workers, ray) in modes.items():
                 rates[label].append(measure(label, workers, ray, config, Path(folder) / f"round{round_index}"))
-    print(f"load average after: {os.getloadavg()[0]:.2f}; cores this session gets with 2 processes: "
-          f"{available_parallelism():.2f} (the most --workers 2 can gain here)")  # fmt: skip
+    print(
+        f"load average after: {os.getloadavg()[0]:.2f}; cores this session gets with 2 processes: "
+        f"{available_parallelism():.2f} (the most --workers 2 can gain here)"
+    )
     one, two, ray = ([statistics.median(rate[i] for rate in rates[label]) for i in (0, 1)] for label in modes)
-    print("medians: " + "; ".join(f"{label} {whole:.3f} / {steady:.3f} episodes/s (whole / steady)"
-                                  for label, (whole, steady) in zip(modes, (one, two, ray))))  # fmt: skip
+    print(
+        "medians: "
+        + "; ".join(
+            f"{label} {whole:.3f} / {steady:.3f} episodes/s (whole / steady)"
+            for label, (whole, steady) in zip(modes, (one, two, ray))
+        )
+    )
     for index, kind in enumerate(("whole run", "steady")):
-        print(f"speed-up ratio ({kind}): --workers 2 / --workers 1 = {two[index] / one[index]:.2f}x (target >= 1.7); "
-              f"Ray / --workers 2 = {ray[index] / two[index]:.2f} (target >= 0.90)")  # fmt: skip
+        print(
+            f"speed-up ratio ({kind}): --workers 2 / --workers 1 = {two[index] / one[index]:.2f}x (target >= 1.7); "
+            f"Ray / --workers 2 = {ray[index] / two[index]:.2f} (target >= 0.90)"
+        )
 
 
 if __name__ == "__main__":

@@ -39,9 +39,26 @@ def free_port() -> int:
 
 
 def start_server(recorded: Path, port: int, delay_ms: float) -> subprocess.Popen:
-    server = subprocess.Popen([sys.executable, "-m", "robolab_ms.cli", "serve", "--policy", "replay", "--replay-from",
-                               str(recorded), "--delay-ms", f"{delay_ms:g}", "--host", "127.0.0.1", "--port",
-                               str(port)], stdout=subprocess.PIPE, text=True)  # fmt: skip
+    server = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "robolab_ms.cli",
+            "serve",
+            "--policy",
+            "replay",
+            "--replay-from",
+            str(recorded),
+            "--delay-ms",
+            f"{delay_ms:g}",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     while "robolab serve:" not in (server.stdout.readline() or "robolab serve:"):
         pass
     if server.poll() is not None:
@@ -54,21 +71,30 @@ def row(name: str, results: list[EpisodeResult]) -> str:
     to_success = f"{np.mean([r.success_step for r in successes]):.1f}" if successes else "-"
     held = [r.held_steps for r in results if r.held_steps is not None]
     held_text = f"{sum(held)} / {sum(r.steps for r in results)}" if held else "-"
-    latency = (f"{np.mean([r.inference_ms_mean for r in results]):.0f} / "
-               f"{max(r.inference_ms_max for r in results):.0f}")  # fmt: skip
-    return (f"| {name} | {len(successes)}/{len(results)} | {np.mean([r.score for r in results]):.2f} | {to_success} | "
-            f"{held_text} | {sum(r.queries for r in results)} | {latency} |")  # fmt: skip
+    latency = f"{np.mean([r.inference_ms_mean for r in results]):.0f} / {max(r.inference_ms_max for r in results):.0f}"
+    return (
+        f"| {name} | {len(successes)}/{len(results)} | {np.mean([r.score for r in results]):.2f} | {to_success} | "
+        f"{held_text} | {sum(r.queries for r in results)} | {latency} |"
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tasks", nargs="+", default=list(TASKS), help=f"default: {' '.join(TASKS)}")
     parser.add_argument("--episodes", type=int, default=3, help="seeds 0 .. N-1 per task (default: 3)")
-    parser.add_argument("--delay-ms", type=float, nargs="+", default=[200.0],
-                        help="the served policy's delays, one real-time run each (default: 200)")  # fmt: skip
+    parser.add_argument(
+        "--delay-ms",
+        type=float,
+        nargs="+",
+        default=[200.0],
+        help="the served policy's delays, one real-time run each (default: 200)",
+    )
     parser.add_argument("--max-steps", type=int, default=200, help="episodes cut here (default: 200 = 13.3 s)")
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.tasks, args.episodes, args.delay_ms, args.max_steps = args.tasks[:1], 1, [200.0], 20
@@ -77,8 +103,9 @@ def main() -> None:
     started = time.perf_counter()
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder)
-        oracle = run_evaluation(make_policy("oracle"), replace(config, save_actions=True), out / "oracle",
-                                show_progress=False)  # fmt: skip
+        oracle = run_evaluation(
+            make_policy("oracle"), replace(config, save_actions=True), out / "oracle", show_progress=False
+        )
         runs: dict[str, list[EpisodeResult]] = {}
         modes = [(f"synchronous, {args.delay_ms[0]:g} ms", args.delay_ms[0], False)]
         modes += [(f"real time, {delay:g} ms", delay, True) for delay in args.delay_ms]
@@ -87,8 +114,9 @@ def main() -> None:
             server = start_server(out / "oracle", port, delay)
             try:
                 options = PolicyOptions(port=port, realtime=realtime)
-                runs[mode] = run_evaluation(make_policy("openpi", options), config, out / f"{realtime}{delay:g}",
-                                            show_progress=False)  # fmt: skip
+                runs[mode] = run_evaluation(
+                    make_policy("openpi", options), config, out / f"{realtime}{delay:g}", show_progress=False
+                )
             finally:
                 server.terminate()
                 server.wait(timeout=30)
@@ -96,14 +124,17 @@ def main() -> None:
     errors = [f"{r.task} seed {r.seed}: {r.error}" for results in runs.values() for r in results if r.error]
     if errors:
         raise SystemExit("errored episodes:\n" + "\n".join(errors))
+
     def outcomes(results: list[EpisodeResult]) -> dict[tuple, tuple]:
         return {(r.task, r.seed): (r.success, r.score, r.steps) for r in results}
 
     reproduced = outcomes(runs[modes[0][0]]) == outcomes(oracle)
 
-    print(f"\nthe oracle's actions replayed by a slow openpi server (chunks of 10, open-loop horizon 8), "
-          f"{args.episodes} seed(s) per task, episodes cut at {args.max_steps} steps; the synchronous replay "
-          f"reproduces the oracle's episodes: {'yes' if reproduced else 'NO'}\n")  # fmt: skip
+    print(
+        f"\nthe oracle's actions replayed by a slow openpi server (chunks of 10, open-loop horizon 8), "
+        f"{args.episodes} seed(s) per task, episodes cut at {args.max_steps} steps; the synchronous replay "
+        f"reproduces the oracle's episodes: {'yes' if reproduced else 'NO'}\n"
+    )
     print("| task | mode | success | mean score | steps to success | held steps | queries | latency ms mean / max |")
     print("|---|---|---|---|---|---|---|---|")
     for task in args.tasks:

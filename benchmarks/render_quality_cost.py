@@ -33,8 +33,15 @@ from robolab_ms.catalog import load_catalog  # noqa: E402
 from robolab_ms.catalog.appearance import panorama_sphere, plane_mesh, visual_mesh_builder  # noqa: E402
 from robolab_ms.scene import backgrounds  # noqa: E402
 
-OBJECTS = [("rubiks_cube", 0.45, 0.1), ("soup_can", 0.6, -0.2), ("banana", 0.5, 0.25), ("bowl_white", 0.62, 0.05),
-           ("apple_red", 0.38, -0.1), ("mug_white", 0.72, 0.22), ("block_red", 0.35, 0.28)]  # fmt: skip
+OBJECTS = [
+    ("rubiks_cube", 0.45, 0.1),
+    ("soup_can", 0.6, -0.2),
+    ("banana", 0.5, 0.25),
+    ("bowl_white", 0.62, 0.05),
+    ("apple_red", 0.38, -0.1),
+    ("mug_white", 0.72, 0.22),
+    ("block_red", 0.35, 0.28),
+]
 EXTERNAL_LEFT = ((0.05, 0.57, 0.66), (-0.393, -0.195, 0.399, 0.805))  # DROID's pose, OpenGL camera convention
 SETTINGS = {"fast": ("minimal", None), "high": ("rt", (32, 16, "oidn"))}  # as robolab_ms.envs.cameras.shader_config
 
@@ -56,8 +63,16 @@ def build_scene(textures: Path) -> sapien.Scene:
     scene = sapien.Scene()
     scene.set_environment_map(sapien.render.RenderCubemap(str(backgrounds.lighting_map("apartment"))))
     scene.set_ambient_light([0.0, 0.0, 0.0])
-    scene.add_directional_light([0.25, -0.2, -1.0], [0.8, 0.77, 0.72], shadow=True, position=[0.55, 0, 0],
-                                shadow_scale=1.0, shadow_near=-2.0, shadow_far=2.0, shadow_map_size=1024)  # fmt: skip
+    scene.add_directional_light(
+        [0.25, -0.2, -1.0],
+        [0.8, 0.77, 0.72],
+        shadow=True,
+        position=[0.55, 0, 0],
+        shadow_scale=1.0,
+        shadow_near=-2.0,
+        shadow_far=2.0,
+        shadow_map_size=1024,
+    )
     floor = visual_mesh_builder(scene)
     floor.add_visual_mesh(plane_mesh(14, 14, 0.8), textured(textures / "dark_floor_texture.png", 0.5))
     floor.initial_pose = sapien.Pose([0.55, 0, -0.75])
@@ -88,10 +103,17 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None, help="save one frame of each quality here")
     parser.add_argument("--textures", type=Path, default=None)
     parser.add_argument("--hdri", type=Path, default=None)
-    parser.add_argument("--denoiser", default=None, choices=["optix", "oidn", "none"],
-                        help="the ray tracer's denoiser (default: the `high` setting's)")
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--denoiser",
+        default=None,
+        choices=["optix", "oidn", "none"],
+        help="the ray tracer's denoiser (default: the `high` setting's)",
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.width, args.height, args.frames = 64, 36, 1
@@ -112,18 +134,23 @@ def main() -> None:
             sapien.render.set_ray_tracing_denoiser(args.denoiser or rt[2])
         scene = build_scene(args.textures)
         focal = 500.0 * args.width / 1280
-        camera = scene.add_camera("external_left", args.width, args.height, 2 * math.atan(args.height / 2 / focal), 0.01, 20)
+        camera = scene.add_camera(
+            "external_left", args.width, args.height, 2 * math.atan(args.height / 2 / focal), 0.01, 20
+        )
         camera.entity.set_pose(camera_pose())
         frames = []
-        for index in range(args.frames + 1):
+        for _ in range(args.frames + 1):
             start = time.perf_counter()
             scene.update_render()
             camera.take_picture()
             rgb = camera.get_picture("Color")
             frames.append(time.perf_counter() - start)
         timings[quality] = statistics.median(frames[1:]) * 1000  # the first frame compiles shaders
-        print(f"{quality:5} ({shader}): first frame {frames[0]:.2f} s, then median {timings[quality]:.1f} ms per frame "
-              f"at {args.width}x{args.height}", flush=True)  # fmt: skip
+        print(
+            f"{quality:5} ({shader}): first frame {frames[0]:.2f} s, then median {timings[quality]:.1f} ms per frame "
+            f"at {args.width}x{args.height}",
+            flush=True,
+        )
         if args.out:
             from PIL import Image
 

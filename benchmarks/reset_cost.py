@@ -50,8 +50,11 @@ def main() -> None:
     parser.add_argument("--obs-mode", default="state_dict", help="state_dict (no cameras) or rgb (two cameras)")
     parser.add_argument("--resets", type=int, default=8)
     parser.add_argument("--restore-steps", type=int, default=100, help="the step of the state that is restored")
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.resets, args.restore_steps = 1, 2
@@ -65,13 +68,17 @@ def main() -> None:
     for _ in range(2):  # alternate, so drifting machine load hits both alike
         old = mean_reset_seconds(reused, args.resets)
         new = mean_reset_seconds(rebuilt, args.resets)
-    print(f"reset ({args.task}, {args.obs_mode}): reused scene {old * 1000:.1f} ms, new scene {new * 1000:.1f} ms, "
-          f"ratio {new / old:.1f}x (+{(new - old) * 1000:.0f} ms per episode)")  # fmt: skip
+    print(
+        f"reset ({args.task}, {args.obs_mode}): reused scene {old * 1000:.1f} ms, new scene {new * 1000:.1f} ms, "
+        f"ratio {new / old:.1f}x (+{(new - old) * 1000:.0f} ms per episode)"
+    )
 
     plain = restore_seconds(rebuilt, args.restore_steps, exact=False)
     exact = restore_seconds(rebuilt, args.restore_steps, exact=True)
-    print(f"set_state_dict at step {args.restore_steps}: ManiSkill's {plain * 1000:.1f} ms, exact (rebuild + replay) "
-          f"{exact * 1000:.0f} ms, ratio {exact / plain:.0f}x")  # fmt: skip
+    print(
+        f"set_state_dict at step {args.restore_steps}: ManiSkill's {plain * 1000:.1f} ms, exact (rebuild + replay) "
+        f"{exact * 1000:.0f} ms, ratio {exact / plain:.0f}x"
+    )
     reused.close()
     rebuilt.close()
 

@@ -27,8 +27,13 @@ def timed_analysis(runs, params, epochs: int, samples: int, threads: int) -> tup
     """(fit seconds, analysis seconds, analysis CPU seconds, method, top-ranked parameter) of one analysis."""
     wall, cpu = time.perf_counter(), time.process_time()
     result = analyse(runs, params=params, epochs=epochs, samples=samples, seed=0, threads=threads)
-    return (result.fit_seconds, time.perf_counter() - wall, time.process_time() - cpu, result.method,
-            str(result.table["parameter"].iloc[0]))  # fmt: skip
+    return (
+        result.fit_seconds,
+        time.perf_counter() - wall,
+        time.process_time() - cpu,
+        result.method,
+        str(result.table["parameter"].iloc[0]),
+    )
 
 
 def main() -> None:
@@ -38,8 +43,11 @@ def main() -> None:
     parser.add_argument("--epochs", type=int, default=50)
     parser.add_argument("--samples", type=int, default=5000)
     parser.add_argument("--threads", type=int, default=1, help="torch threads (the command's default: 1)")
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.episodes, args.baseline_episodes, args.epochs, args.samples = 60, 30, 2, 50
@@ -48,28 +56,36 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         runs = {}
         for count in (args.episodes, args.baseline_episodes):
-            out = write_synthetic_run(Path(folder) / f"light_{count}", "p", [TASK], count, light_dependent_success,
-                                      params=LIGHT_SPACE)  # fmt: skip
+            out = write_synthetic_run(
+                Path(folder) / f"light_{count}", "p", [TASK], count, light_dependent_success, params=LIGHT_SPACE
+            )
             runs[count] = load_runs([out], task_info=info)
         cases = [
             (f"MNPE, {args.episodes} episodes", runs[args.episodes], None),
             (f"MNPE, {args.baseline_episodes} episodes", runs[args.baseline_episodes], None),
-            (f"NPE (continuous only), {args.episodes} episodes", runs[args.episodes],
-             ["light_intensity", "cam_external_left_dx"]),
-        ]  # fmt: skip
+            (
+                f"NPE (continuous only), {args.episodes} episodes",
+                runs[args.episodes],
+                ["light_intensity", "cam_external_left_dx"],
+            ),
+        ]
         rows = []
         for name, episodes, params in cases:
             rows.append((name, *timed_analysis(episodes, params, args.epochs, args.samples, args.threads)))
             print(f"{name}: fit {rows[-1][1]:.1f} s", flush=True)
     reference = rows[0]
-    print(f"\n{args.epochs} epochs, {args.samples} samples, {args.threads} torch thread(s); parameters "
-          f"{', '.join(LIGHT_SPACE)} (success depends on light_intensity only)\n")  # fmt: skip
+    print(
+        f"\n{args.epochs} epochs, {args.samples} samples, {args.threads} torch thread(s); parameters "
+        f"{', '.join(LIGHT_SPACE)} (success depends on light_intensity only)\n"
+    )
     print("| case | method | fit s | analysis s | analysis CPU s | CPU / first | ranked first |")
     print("|---|---|---|---|---|---|---|")
     for name, fit, wall, cpu, method, top in rows:
         print(f"| {name} | {method} | {fit:.1f} | {wall:.1f} | {cpu:.1f} | {cpu / reference[3]:.2f} | {top} |")
-    print(f"ratio analysis CPU time, {args.baseline_episodes} / {args.episodes} episodes (MNPE): "
-          f"{rows[1][3] / reference[3]:.2f}")
+    print(
+        f"ratio analysis CPU time, {args.baseline_episodes} / {args.episodes} episodes (MNPE): "
+        f"{rows[1][3] / reference[3]:.2f}"
+    )
 
 
 if __name__ == "__main__":

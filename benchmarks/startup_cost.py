@@ -32,8 +32,11 @@ def one_run() -> tuple[int, int]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--runs", type=int, default=20)
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.runs = 2
@@ -43,7 +46,9 @@ def main() -> None:
     hooks = [hook for hook, _ in runs]
     ratios = [hook / total for hook, total in runs]
     print(f"runs: {args.runs}")
-    print(f"hook import: median {statistics.median(hooks) / 1000:.3f} ms (min {min(hooks) / 1000:.3f}, max {max(hooks) / 1000:.3f})")
+    print(
+        f"hook import: median {statistics.median(hooks) / 1000:.3f} ms (min {min(hooks) / 1000:.3f}, max {max(hooks) / 1000:.3f})"
+    )
     print(f"ratio hook / whole start-up imports: median {100 * statistics.median(ratios):.1f} %")
 
 

@@ -55,8 +55,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--methods", nargs="+", default=["solver", "grid"], choices=("solver", "grid"))
-    parser.add_argument("--quick", action="store_true", help="smallest settings: the first prompt, one seed, one "
-                        "round, no doc written; only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: the first prompt, one seed, one "
+        "round, no doc written; only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args(argv)
     if args.quick:
         args.seeds, args.rounds = 1, 1
@@ -73,11 +77,17 @@ def main(argv: list[str] | None = None) -> int:
         writer.writeheader()
         writer.writerows(rows)
     minutes = (time.perf_counter() - started) / 60
-    command = (f"PYTHONPATH=. python benchmarks/task_generation.py --seeds {args.seeds} --rounds {args.rounds} "
-               f"--methods {' '.join(args.methods)}")  # fmt: skip
-    tables = (f"Measured with `{command}` (validation seeds 0..{args.seeds - 1} in every round; {minutes:.0f} min "
-              "wall time for the whole run on 2 CPU cores shared with other work, no GPU).\n\n"
-              + generated_tables(rows) + "\n" + judge_table)  # fmt: skip
+    command = (
+        f"PYTHONPATH=. python benchmarks/task_generation.py --seeds {args.seeds} --rounds {args.rounds} "
+        f"--methods {' '.join(args.methods)}"
+    )
+    tables = (
+        f"Measured with `{command}` (validation seeds 0..{args.seeds - 1} in every round; {minutes:.0f} min "
+        "wall time for the whole run on 2 CPU cores shared with other work, no GPU).\n\n"
+        + generated_tables(rows)
+        + "\n"
+        + judge_table
+    )
     print(tables)
     print(ratio_line(rows))
     if not args.quick:
@@ -92,8 +102,11 @@ def ratio_line(rows: list[dict]) -> str:
         mine = [row for row in rows if row["method"] == method]
         shares[method] = sum(row["accepted"] for row in mine) / len(mine)
     if set(shares) != {"solver", "grid"}:
-        return "ratio ours / grid baseline, tasks accepted: needs both methods (" + ", ".join(
-            f"{method} {share:.2f}" for method, share in shares.items()) + ")"
+        return (
+            "ratio ours / grid baseline, tasks accepted: needs both methods ("
+            + ", ".join(f"{method} {share:.2f}" for method, share in shares.items())
+            + ")"
+        )
     ratio = f"{shares['solver'] / shares['grid']:.2f}" if shares["grid"] else "inf (the baseline had none accepted)"
     return f"ratio ours / grid baseline, tasks accepted: {shares['solver']:.2f} / {shares['grid']:.2f} = {ratio}"
 
@@ -107,8 +120,14 @@ def judge_on_handwritten(catalog) -> str:
 
     def key(spec):
         c = spec.success[0]
-        return (c.predicate, tuple(sorted(c.objects)), tuple(sorted(c.references.items())), c.logical, c.k,
-                repr(c.params.get("groups")))  # fmt: skip
+        return (
+            c.predicate,
+            tuple(sorted(c.objects)),
+            tuple(sorted(c.references.items())),
+            c.logical,
+            c.k,
+            repr(c.params.get("groups")),
+        )
 
     pairs = [(a, b) for a in specs for b in specs if a is not b and a.scene.file == b.scene.file and key(a) != key(b)]
     crossed = [judge.judge(a.instructions["default"], b) for a, b in pairs]
@@ -122,9 +141,13 @@ def judge_on_handwritten(catalog) -> str:
         gold = spec.success[0]
         objects = made.get("objects") or [o for members in made.get("groups", {}).values() for o in members]
         places = {k: made[k] for k in ("container", "reference") if k in made}
-        agree += (made["predicate"] == gold.predicate and sorted(objects) == sorted(gold.objects)
-                  and made.get("logical", "all") == gold.logical and made.get("k", 1) == gold.k
-                  and all(gold.references.get(k) == v for k, v in places.items()))  # fmt: skip
+        agree += (
+            made["predicate"] == gold.predicate
+            and sorted(objects) == sorted(gold.objects)
+            and made.get("logical", "all") == gold.logical
+            and made.get("k", 1) == gold.k
+            and all(gold.references.get(k) == v for k, v in places.items())
+        )
 
     def count(verdicts, verdict):
         return sum(v.verdict == verdict for v in verdicts)
@@ -147,8 +170,15 @@ def judge_on_handwritten(catalog) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ 3
-def generated_tasks(catalog, out: Path, methods: list[str], seeds: int, rounds: int,
-                    prompts_per_theme: int | None = None, themes: int | None = None) -> list[dict]:
+def generated_tasks(
+    catalog,
+    out: Path,
+    methods: list[str],
+    seeds: int,
+    rounds: int,
+    prompts_per_theme: int | None = None,
+    themes: int | None = None,
+) -> list[dict]:
     """A generated task per prompt (the first `prompts_per_theme` of the first `themes` themes; default all) and
     method."""
     prompts = yaml.safe_load(PROMPTS.read_text(encoding="utf-8"))
@@ -160,51 +190,87 @@ def generated_tasks(catalog, out: Path, methods: list[str], seeds: int, rounds: 
     for theme, texts in prompts.items():
         for number, prompt in enumerate(texts):
             answer, _ = scene_model.ask_json("", [{"role": "user", "content": prompt}])
-            requested = [r for r in read_proposal(answer, catalog).relations if r.kind not in ("random_yaw", "anywhere")]
+            requested = [
+                r for r in read_proposal(answer, catalog).relations if r.kind not in ("random_yaw", "anywhere")
+            ]
             instruction = instructions[theme][number]
             for method in methods:
                 folder = out / method
                 scene_file = folder / "scene_builders" / f"{theme}_{number}.yaml"
-                scene = generate_scene(prompt, scene_file, scene_model, method=method, render=False, catalog=catalog,
-                                       requested=requested)  # fmt: skip
+                scene = generate_scene(
+                    prompt, scene_file, scene_model, method=method, render=False, catalog=catalog, requested=requested
+                )
                 name = "Gen" + "".join(part.title() for part in theme.split("_")) + f"{number}{method.title()}"
-                row = {"theme": theme, "prompt": number, "method": method, "instruction": instruction,
-                       "scene_written": int(scene.scene_file is not None), "accepted": 0, "rounds": 0,
-                       "first_round": 0, "judge_first": "", "judge_last": "", "predicate": "", "stopped_at": "",
-                       "oracle": "", "random": "", "at_reset": "", "seconds": 0.0, "validate_seconds": 0.0,
-                       "problems": ""}  # fmt: skip
+                row = {
+                    "theme": theme,
+                    "prompt": number,
+                    "method": method,
+                    "instruction": instruction,
+                    "scene_written": int(scene.scene_file is not None),
+                    "accepted": 0,
+                    "rounds": 0,
+                    "first_round": 0,
+                    "judge_first": "",
+                    "judge_last": "",
+                    "predicate": "",
+                    "stopped_at": "",
+                    "oracle": "",
+                    "random": "",
+                    "at_reset": "",
+                    "seconds": 0.0,
+                    "validate_seconds": 0.0,
+                    "problems": "",
+                }
                 if scene.scene_file is None:
                     row["stopped_at"], row["problems"] = "scene", "; ".join(scene.problems)
                     rows.append(row)
                     print(f"{theme}/{number} {method}: no scene", flush=True)
                     continue
                 spec = read_scene(scene.scene_file, catalog)
-                result = generate_task(spec, instruction, folder / "task_specs" / f"{name}.yaml",
-                                       OfflineTaskModel(catalog, spec), judge, rounds=rounds, seeds=seeds,
-                                       catalog=catalog)  # fmt: skip
+                result = generate_task(
+                    spec,
+                    instruction,
+                    folder / "task_specs" / f"{name}.yaml",
+                    OfflineTaskModel(catalog, spec),
+                    judge,
+                    rounds=rounds,
+                    seeds=seeds,
+                    catalog=catalog,
+                )
                 validation = result.validation
-                row.update({"accepted": int(result.accepted), "rounds": result.rounds,
-                            "first_round": int(result.accepted and result.rounds == 1),
-                            "judge_first": result.first_judgement.verdict if result.first_judgement else "",
-                            "judge_last": result.judgement.verdict if result.judgement else "",
-                            "predicate": (result.condition or {}).get("predicate", ""),
-                            "stopped_at": result.stopped_at,
-                            "oracle": validation.oracle_success if validation else "",
-                            "random": validation.random_success if validation else "",
-                            "at_reset": validation.success_at_reset if validation else "",
-                            "seconds": round(result.seconds, 1), "validate_seconds": round(result.validate_seconds, 1),
-                            "problems": " | ".join(result.problems)})  # fmt: skip
+                row.update(
+                    {
+                        "accepted": int(result.accepted),
+                        "rounds": result.rounds,
+                        "first_round": int(result.accepted and result.rounds == 1),
+                        "judge_first": result.first_judgement.verdict if result.first_judgement else "",
+                        "judge_last": result.judgement.verdict if result.judgement else "",
+                        "predicate": (result.condition or {}).get("predicate", ""),
+                        "stopped_at": result.stopped_at,
+                        "oracle": validation.oracle_success if validation else "",
+                        "random": validation.random_success if validation else "",
+                        "at_reset": validation.success_at_reset if validation else "",
+                        "seconds": round(result.seconds, 1),
+                        "validate_seconds": round(result.validate_seconds, 1),
+                        "problems": " | ".join(result.problems),
+                    }
+                )
                 rows.append(row)
-                print(f"{theme}/{number} {method}: {instruction} -> {row['predicate']}, accepted {row['accepted']} "
-                      f"in {row['rounds']} round(s), judge {row['judge_first']}/{row['judge_last']}, oracle "
-                      f"{row['oracle']}, random {row['random']}, {row['seconds']} s {row['problems'][:200]}",
-                      flush=True)  # fmt: skip
+                print(
+                    f"{theme}/{number} {method}: {instruction} -> {row['predicate']}, accepted {row['accepted']} "
+                    f"in {row['rounds']} round(s), judge {row['judge_first']}/{row['judge_last']}, oracle "
+                    f"{row['oracle']}, random {row['random']}, {row['seconds']} s {row['problems'][:200]}",
+                    flush=True,
+                )
     return rows
 
 
 def generated_tables(rows: list[dict]) -> str:
-    lines = ["| scenes of | tasks accepted (judge + validate) | passed in the first round | judge aligned (first "
-             "answer) | rounds (mean) | time per task (s, median; validating) |", "|---|---|---|---|---|---|"]  # fmt: skip
+    lines = [
+        "| scenes of | tasks accepted (judge + validate) | passed in the first round | judge aligned (first "
+        "answer) | rounds (mean) | time per task (s, median; validating) |",
+        "|---|---|---|---|---|---|",
+    ]
     for method in dict.fromkeys(row["method"] for row in rows):
         mine = [row for row in rows if row["method"] == method]
         judged = [row for row in mine if row["judge_first"]]
@@ -213,14 +279,21 @@ def generated_tables(rows: list[dict]) -> str:
         aligned = sum(row["judge_first"] == ALIGNED for row in judged)
         tried = [row for row in mine if row["rounds"]]
         label = "ours (`--method solver`)" if method == "solver" else "RoboLab's grid baseline (`--method grid`)"
-        lines.append(f"| {label} | {accepted}/{len(mine)} ({100 * accepted / len(mine):.0f} %) | {first}/{len(mine)} | "
-                     f"{aligned}/{len(judged)} | {statistics.mean(r['rounds'] for r in tried):.1f} | "
-                     f"{statistics.median(r['seconds'] for r in tried):.0f} "
-                     f"({statistics.median(r['validate_seconds'] for r in tried):.0f}) |")  # fmt: skip
-    lines += ["", "Per task (ours / grid baseline: accepted in N rounds, or the check the last round stopped at):", "",
-              "| theme | instruction | condition | ours | grid baseline |", "|---|---|---|---|---|"]  # fmt: skip
+        lines.append(
+            f"| {label} | {accepted}/{len(mine)} ({100 * accepted / len(mine):.0f} %) | {first}/{len(mine)} | "
+            f"{aligned}/{len(judged)} | {statistics.mean(r['rounds'] for r in tried):.1f} | "
+            f"{statistics.median(r['seconds'] for r in tried):.0f} "
+            f"({statistics.median(r['validate_seconds'] for r in tried):.0f}) |"
+        )
+    lines += [
+        "",
+        "Per task (ours / grid baseline: accepted in N rounds, or the check the last round stopped at):",
+        "",
+        "| theme | instruction | condition | ours | grid baseline |",
+        "|---|---|---|---|---|",
+    ]
     by_key = {(r["theme"], r["prompt"], r["method"]): r for r in rows}
-    for (theme, number) in dict.fromkeys((r["theme"], r["prompt"]) for r in rows):
+    for theme, number in dict.fromkeys((r["theme"], r["prompt"]) for r in rows):
         cells = []
         for method in ("solver", "grid"):
             row = by_key.get((theme, number, method))
@@ -230,10 +303,18 @@ def generated_tables(rows: list[dict]) -> str:
                 cells.append(f"yes ({row['rounds']})")
             else:
                 cells.append(f"no: {row['stopped_at']}" + (f" ({_short(row['problems'])})" if row["problems"] else ""))
-        predicate = next((by_key[(theme, number, m)]["predicate"] for m in ("solver", "grid")
-                          if (theme, number, m) in by_key and by_key[(theme, number, m)]["predicate"]), "")  # fmt: skip
+        predicate = next(
+            (
+                by_key[(theme, number, m)]["predicate"]
+                for m in ("solver", "grid")
+                if (theme, number, m) in by_key and by_key[(theme, number, m)]["predicate"]
+            ),
+            "",
+        )
         instruction = next(r["instruction"] for r in rows if r["theme"] == theme and r["prompt"] == number)
-        lines.append(f"| {theme.replace('_', ' ')} {number + 1} | {instruction} | {predicate} | {cells[0]} | {cells[1]} |")
+        lines.append(
+            f"| {theme.replace('_', ' ')} {number + 1} | {instruction} | {predicate} | {cells[0]} | {cells[1]} |"
+        )
     return "\n".join(lines) + "\n"
 
 

@@ -30,8 +30,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=300, help="control steps per timed block")
     parser.add_argument("--rounds", type=int, default=7, help="timed blocks of each kind per situation")
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.steps, args.rounds = 2, 1
@@ -68,8 +71,10 @@ def main() -> None:
         print(f"\n{situation}: {quiet:.0%} of the evaluations took the quiet-step path")
         print(f"  step with task logic:     median {statistics.median(with_logic):.3f} ms")
         print(f"  step with empty evaluate: median {statistics.median(without):.3f} ms")
-        print(f"  ratio (target <= 1.10):   median {statistics.median(ratios):.3f}"
-              f"  (min {min(ratios):.3f}, max {max(ratios):.3f})")  # fmt: skip
+        print(
+            f"  ratio (target <= 1.10):   median {statistics.median(ratios):.3f}"
+            f"  (min {min(ratios):.3f}, max {max(ratios):.3f})"
+        )
 
 
 if __name__ == "__main__":

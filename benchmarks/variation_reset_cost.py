@@ -36,8 +36,11 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=12)
     parser.add_argument("--rounds", type=int, default=3, help="warm passes over the seeds")
     parser.add_argument("--vary", default=EVERY_AXIS)
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.seeds, args.rounds = 1, 1
@@ -56,12 +59,16 @@ def main() -> None:
             none.append(reset_seconds(plain, seed))
             warm.append(reset_seconds(varied, seed))
     none_median, warm_median = statistics.median(none), statistics.median(warm)
-    print(f"reset ({args.task}, rgb, {args.seeds} seeds x {args.rounds} rounds, medians): no variations "
-          f"{none_median * 1000:.0f} ms; every axis ({args.vary}) warm {warm_median * 1000:.0f} ms, ratio "
-          f"{warm_median / none_median:.2f}x (target <= 1.5)")  # fmt: skip
+    print(
+        f"reset ({args.task}, rgb, {args.seeds} seeds x {args.rounds} rounds, medians): no variations "
+        f"{none_median * 1000:.0f} ms; every axis ({args.vary}) warm {warm_median * 1000:.0f} ms, ratio "
+        f"{warm_median / none_median:.2f}x (target <= 1.5)"
+    )
     per_map = (sum(cold) - len(cold) * warm_median) / max(new_maps, 1)
-    print(f"first pass (cold): {statistics.mean(cold) * 1000:.0f} ms per reset; {new_maps} environment maps made for "
-          f"the first time, about {per_map:.1f} s each (once per background and light level per process)")  # fmt: skip
+    print(
+        f"first pass (cold): {statistics.mean(cold) * 1000:.0f} ms per reset; {new_maps} environment maps made for "
+        f"the first time, about {per_map:.1f} s each (once per background and light level per process)"
+    )
     plain.close()
     varied.close()
 

@@ -43,8 +43,15 @@ def caption(index: int) -> Caption:
 
 def in_place(frames: int, folder: Path) -> float:
     """Seconds per frame when the simulation thread composes and encodes each frame itself."""
-    writer = imageio.get_writer(folder / "inline.mp4", format="FFMPEG", fps=15, codec="libx264", quality=7,
-                                macro_block_size=16, ffmpeg_log_level="error")  # fmt: skip
+    writer = imageio.get_writer(
+        folder / "inline.mp4",
+        format="FFMPEG",
+        fps=15,
+        codec="libx264",
+        quality=7,
+        macro_block_size=16,
+        ffmpeg_log_level="error",
+    )
     data = [synthetic_views(i) for i in range(frames)]
     start = time.perf_counter()
     for index, (views, video) in enumerate(data):
@@ -72,8 +79,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=150)
     parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--quick", action="store_true",
-                        help="smallest settings: only checks that the script runs (its numbers mean nothing)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="smallest settings: only checks that the script runs (its numbers mean nothing)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.frames, args.rounds = 4, 1

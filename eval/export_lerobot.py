@@ -28,8 +28,19 @@ from typing import Any
 import numpy as np
 
 from robolab_ms.errors import ResultsError, RoboLabError, make_folder
-from robolab_ms.eval.results import (InvalidValue, as_count, as_events, as_flag, as_integer, as_name, as_names,
-                                     as_number, as_text, optional, shown)  # fmt: skip
+from robolab_ms.eval.results import (
+    InvalidValue,
+    as_count,
+    as_events,
+    as_flag,
+    as_integer,
+    as_name,
+    as_names,
+    as_number,
+    as_text,
+    optional,
+    shown,
+)
 
 CODEBASE_VERSION = "v3.0"
 CHUNKS_SIZE = 1000  # files per chunk folder
@@ -46,8 +57,9 @@ QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
 IMAGE_STAT_FRAMES = 100  # frames per episode sampled for image statistics
 IMAGE_STAT_WIDTH = 160  # sampled frames are thinned to about this width
 VIDEO_CODEC = "h264"
-RECORDING_FIX = ("Record the episode again, or move this recording (its .h5 and .json) out of the folder to export "
-                 "the others")  # fmt: skip
+RECORDING_FIX = (
+    "Record the episode again, or move this recording (its .h5 and .json) out of the folder to export the others"
+)
 # the fields of a recording's `robolab` block that the export reads, and what each must be (absent: its default)
 META_KINDS = {
     "task": as_name, "instruction": optional(as_text), "instruction_variant": optional(as_text),
@@ -57,8 +69,12 @@ META_KINDS = {
     "error": optional(as_text),
 }  # fmt: skip
 # datasets of a recording's trajectory group that the export reads, with the rows each needs (T: actions)
-TRAJECTORY_DATASETS = {"actions": "T", "success": "T", "robolab/joint_position": "T + 1",
-                       "obs/extra/gripper_position": "T + 1"}  # fmt: skip
+TRAJECTORY_DATASETS = {
+    "actions": "T",
+    "success": "T",
+    "robolab/joint_position": "T + 1",
+    "obs/extra/gripper_position": "T + 1",
+}
 
 
 @dataclass
@@ -74,8 +90,10 @@ class ExportReport:
 
     def line(self) -> str:
         cameras = ", ".join(self.cameras) if self.cameras else "none (record with --record-images for videos)"
-        return (f"{self.episodes} episode(s), {self.frames} frame(s), {self.tasks} task(s), cameras: {cameras} -> "
-                f"{self.out_dir}")  # fmt: skip
+        return (
+            f"{self.episodes} episode(s), {self.frames} frame(s), {self.tasks} task(s), cameras: {cameras} -> "
+            f"{self.out_dir}"
+        )
 
 
 @dataclass
@@ -159,8 +177,9 @@ def _recording_meta(path: Path) -> dict[str, Any]:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ResultsError(path, None, "", f"cannot be read as JSON ({exc})", RECORDING_FIX) from None
     if not isinstance(meta, dict):
-        raise ResultsError(path, None, "", f"is {shown(meta)}, not a recording description (a JSON object)",
-                           RECORDING_FIX)  # fmt: skip
+        raise ResultsError(
+            path, None, "", f"is {shown(meta)}, not a recording description (a JSON object)", RECORDING_FIX
+        )
     if "robolab" not in meta:
         return meta
     info, field = meta["robolab"], "robolab"
@@ -209,8 +228,13 @@ def _read(episode: _Episode, cameras: list[str]) -> dict[str, np.ndarray]:
         for key, rows in TRAJECTORY_DATASETS.items():
             needed = steps + (1 if rows == "T + 1" else 0)
             if len(group[key]) != needed:
-                raise ResultsError(episode.recording, None, f"{TRAJECTORY_KEY}/{key}", f"has {len(group[key])} "
-                                   f"rows, expected {rows} = {needed} ({steps} actions)", RECORDING_FIX)  # fmt: skip
+                raise ResultsError(
+                    episode.recording,
+                    None,
+                    f"{TRAJECTORY_KEY}/{key}",
+                    f"has {len(group[key])} rows, expected {rows} = {needed} ({steps} actions)",
+                    RECORDING_FIX,
+                )
         actions = np.asarray(group["actions"], dtype=np.float32)
         steps = len(actions)
         joints = np.asarray(group["robolab/joint_position"][:steps], dtype=np.float32)
@@ -223,9 +247,11 @@ def _read(episode: _Episode, cameras: list[str]) -> dict[str, np.ndarray]:
         for camera in cameras:
             key = f"obs/sensor_data/{camera}/rgb"
             if key not in group:
-                raise RoboLabError(f"{episode.recording}: no images of the camera '{camera}' (recorded without "
-                                   "--record-images?); export recordings made the same way together, or pass "
-                                   "--no-videos")  # fmt: skip
+                raise RoboLabError(
+                    f"{episode.recording}: no images of the camera '{camera}' (recorded without "
+                    "--record-images?); export recordings made the same way together, or pass "
+                    "--no-videos"
+                )
             arrays[f"observation.images.{camera}"] = np.asarray(group[key][:steps])
     return arrays
 
@@ -234,13 +260,27 @@ def _video_writer(path: Path, fps: int) -> Any:
     import imageio.v2 as imageio
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    return imageio.get_writer(path, format="FFMPEG", fps=fps, codec="libx264", pixelformat="yuv420p", quality=None,
-                              macro_block_size=1, ffmpeg_log_level="error",
-                              output_params=["-crf", "18", "-g", str(fps)])  # fmt: skip
+    return imageio.get_writer(
+        path,
+        format="FFMPEG",
+        fps=fps,
+        codec="libx264",
+        pixelformat="yuv420p",
+        quality=None,
+        macro_block_size=1,
+        ffmpeg_log_level="error",
+        output_params=["-crf", "18", "-g", str(fps)],
+    )
 
 
-def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tasks: list[str] | None = None,
-                   videos: bool = True, frames_per_file: int = FRAMES_PER_FILE) -> ExportReport:  # fmt: skip
+def export_lerobot(
+    run_dir: Path,
+    out_dir: Path,
+    success_only: bool = False,
+    tasks: list[str] | None = None,
+    videos: bool = True,
+    frames_per_file: int = FRAMES_PER_FILE,
+) -> ExportReport:
     """Write the recordings of `run_dir` (a results folder, or a folder of recordings) as a LeRobot v3.0 dataset in
     `out_dir`, which must be empty or new. `success_only` keeps only successful episodes; `tasks` only those
     tasks; `videos=False` leaves the cameras out."""
@@ -258,8 +298,10 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
     episodes = _load_episodes(run_dir, success_only, tasks, report)
     if not episodes:
         why = "; ".join(report.skipped) or ("no successful episode" if success_only else "no recording")
-        raise RoboLabError(f"{run_dir}: nothing to export ({why}). Record episodes with `robolab eval --record` "
-                           "(--record-images for camera videos)")  # fmt: skip
+        raise RoboLabError(
+            f"{run_dir}: nothing to export ({why}). Record episodes with `robolab eval --record` "
+            "(--record-images for camera videos)"
+        )
 
     first = episodes[0].robolab
     fps = int(first.get("control_hz", 15))
@@ -274,9 +316,11 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
     for episode in episodes:
         info = episode.robolab
         if info.get("robot") != robot or int(info.get("control_hz", 15)) != fps:
-            raise RoboLabError(f"{episode.recording}: robot {info.get('robot')} at {info.get('control_hz')} Hz, but "
-                               f"{episodes[0].recording} has {robot} at {fps} Hz; export one robot per dataset "
-                               "(use --task, or separate results folders)")  # fmt: skip
+            raise RoboLabError(
+                f"{episode.recording}: robot {info.get('robot')} at {info.get('control_hz')} Hz, but "
+                f"{episodes[0].recording} has {robot} at {fps} Hz; export one robot per dataset "
+                "(use --task, or separate results folders)"
+            )
 
     task_texts = sorted({episode.robolab.get("instruction") or episode.robolab.get("task") for episode in episodes})
     task_index = {text: index for index, text in enumerate(task_texts)}
@@ -290,21 +334,45 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
         if height % 2 or width % 2:
             raise RoboLabError(f"camera '{camera}' records {width}x{height} images; H.264 needs even sizes")
         features[key] = {
-            "dtype": "video", "shape": [height, width, channels], "names": ["height", "width", "channels"],
-            "info": {"video.height": height, "video.width": width, "video.codec": VIDEO_CODEC,
-                     "video.pix_fmt": "yuv420p", "video.is_depth_map": False, "video.fps": fps,
-                     "video.channels": channels, "has_audio": False},
-        }  # fmt: skip
-    for name, dtype in (("timestamp", "float32"), ("frame_index", "int64"), ("episode_index", "int64"),
-                        ("index", "int64"), ("task_index", "int64"), ("next.done", "bool"), ("next.success", "bool")):  # fmt: skip
+            "dtype": "video",
+            "shape": [height, width, channels],
+            "names": ["height", "width", "channels"],
+            "info": {
+                "video.height": height,
+                "video.width": width,
+                "video.codec": VIDEO_CODEC,
+                "video.pix_fmt": "yuv420p",
+                "video.is_depth_map": False,
+                "video.fps": fps,
+                "video.channels": channels,
+                "has_audio": False,
+            },
+        }
+    for name, dtype in (
+        ("timestamp", "float32"),
+        ("frame_index", "int64"),
+        ("episode_index", "int64"),
+        ("index", "int64"),
+        ("task_index", "int64"),
+        ("next.done", "bool"),
+        ("next.success", "bool"),
+    ):
         features[name] = {"dtype": dtype, "shape": [1], "names": None}
 
     dims = len(arm_joints) + 1
-    schema = pa.schema([
-        ("observation.state", pa.list_(pa.float32(), dims)), ("action", pa.list_(pa.float32(), dims)),
-        ("timestamp", pa.float32()), ("frame_index", pa.int64()), ("episode_index", pa.int64()),
-        ("index", pa.int64()), ("task_index", pa.int64()), ("next.done", pa.bool_()), ("next.success", pa.bool_()),
-    ])  # fmt: skip
+    schema = pa.schema(
+        [
+            ("observation.state", pa.list_(pa.float32(), dims)),
+            ("action", pa.list_(pa.float32(), dims)),
+            ("timestamp", pa.float32()),
+            ("frame_index", pa.int64()),
+            ("episode_index", pa.int64()),
+            ("index", pa.int64()),
+            ("task_index", pa.int64()),
+            ("next.done", pa.bool_()),
+            ("next.success", pa.bool_()),
+        ]
+    )
     make_folder(out_dir, "OUT_DIR")
     rows: list[dict[str, Any]] = []
     numeric: dict[str, list[np.ndarray]] = {name: [] for name in features if features[name]["dtype"] != "video"}
@@ -327,23 +395,33 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
                 path = out_dir / DATA_PATH.format(**place)
                 path.parent.mkdir(parents=True, exist_ok=True)
                 writer = pq.ParquetWriter(path, schema)
-                video_writers = {key: _video_writer(out_dir / VIDEO_PATH.format(video_key=key, **place), fps)
-                                 for key in video_keys}  # fmt: skip
+                video_writers = {
+                    key: _video_writer(out_dir / VIDEO_PATH.format(video_key=key, **place), fps) for key in video_keys
+                }
             frame = np.arange(steps)
             instruction = episode.robolab.get("instruction") or episode.robolab.get("task")
             columns = {
-                "observation.state": arrays["observation.state"], "action": arrays["action"],
-                "timestamp": (frame / fps).astype(np.float32), "frame_index": frame.astype(np.int64),
+                "observation.state": arrays["observation.state"],
+                "action": arrays["action"],
+                "timestamp": (frame / fps).astype(np.float32),
+                "frame_index": frame.astype(np.int64),
                 "episode_index": np.full(steps, episode_index, np.int64),
                 "index": np.arange(total, total + steps, dtype=np.int64),
                 "task_index": np.full(steps, task_index[instruction], np.int64),
-                "next.done": frame == steps - 1, "next.success": arrays["next.success"],
-            }  # fmt: skip
-            table = pa.table({
-                name: (pa.FixedSizeListArray.from_arrays(pa.array(columns[name].reshape(-1), pa.float32()), dims)
-                       if name in ("observation.state", "action") else pa.array(columns[name], schema.field(name).type))
-                for name in schema.names
-            }, schema=schema)  # fmt: skip
+                "next.done": frame == steps - 1,
+                "next.success": arrays["next.success"],
+            }
+            table = pa.table(
+                {
+                    name: (
+                        pa.FixedSizeListArray.from_arrays(pa.array(columns[name].reshape(-1), pa.float32()), dims)
+                        if name in ("observation.state", "action")
+                        else pa.array(columns[name], schema.field(name).type)
+                    )
+                    for name in schema.names
+                },
+                schema=schema,
+            )
             writer.write_table(table)
             episode_stats = {}
             for name in numeric:
@@ -351,10 +429,14 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
                 numeric[name].append(values)
                 episode_stats[name] = feature_stats(values if values.ndim > 1 else values.reshape(-1, 1))
             row: dict[str, Any] = {
-                "episode_index": episode_index, "tasks": [instruction], "length": steps,
-                "data/chunk_index": place["chunk_index"], "data/file_index": place["file_index"],
-                "dataset_from_index": total, "dataset_to_index": total + steps,
-            }  # fmt: skip
+                "episode_index": episode_index,
+                "tasks": [instruction],
+                "length": steps,
+                "data/chunk_index": place["chunk_index"],
+                "data/file_index": place["file_index"],
+                "dataset_from_index": total,
+                "dataset_to_index": total + steps,
+            }
             for key in video_keys:
                 frames = arrays[key]
                 for image in frames:
@@ -371,14 +453,20 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
                 for key, value in stats.items():
                     row[f"stats/{name}/{key}"] = value.tolist()
             info = episode.robolab
-            row.update({
-                "success": bool(info.get("success")), "score": float(info.get("score") or 0.0),
-                "progress": float(info.get("progress") or 0.0), "seed": int(info.get("seed", -1)),
-                "robolab/task": info.get("task"), "robolab/instruction_variant": info.get("instruction_variant"),
-                "robolab/robot": info.get("robot"), "robolab/policy": info.get("policy"),
-                "robolab/events": json.dumps(info.get("events") or []),
-                "robolab/recording": episode.recording.name,
-            })  # fmt: skip
+            row.update(
+                {
+                    "success": bool(info.get("success")),
+                    "score": float(info.get("score") or 0.0),
+                    "progress": float(info.get("progress") or 0.0),
+                    "seed": int(info.get("seed", -1)),
+                    "robolab/task": info.get("task"),
+                    "robolab/instruction_variant": info.get("instruction_variant"),
+                    "robolab/robot": info.get("robot"),
+                    "robolab/policy": info.get("policy"),
+                    "robolab/events": json.dumps(info.get("events") or []),
+                    "robolab/recording": episode.recording.name,
+                }
+            )
             rows.append(row)
             total += steps
             file_frames += steps
@@ -393,8 +481,9 @@ def export_lerobot(run_dir: Path, out_dir: Path, success_only: bool = False, tas
     episodes_path = out_dir / EPISODES_PATH.format(chunk_index=0, file_index=0)
     episodes_path.parent.mkdir(parents=True, exist_ok=True)
     pq.write_table(pa.Table.from_pylist(rows), episodes_path)
-    tasks_frame = pd.DataFrame({"task_index": np.arange(len(task_texts), dtype=np.int64)},
-                               index=pd.Index(task_texts, name="task"))  # fmt: skip
+    tasks_frame = pd.DataFrame(
+        {"task_index": np.arange(len(task_texts), dtype=np.int64)}, index=pd.Index(task_texts, name="task")
+    )
     tasks_frame.to_parquet(out_dir / TASKS_PATH)
 
     stats = {}

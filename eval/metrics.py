@@ -46,9 +46,17 @@ METRIC_KEYS = (*ROBOLAB_METRIC_KEYS, "joint_tracking_max")
 # `joint_tracking_max` meant then what it means now and keeps its name.
 LEGACY_METRIC_NAMES = {
     name: f"{name}_v1"
-    for name in ("ee_sparc", "joint_sparc", "ee_jerk", "joint_jerk", "ee_path_length", "ee_speed_mean",
-                 "ee_speed_max", "joint_tracking_rmse")
-}  # fmt: skip
+    for name in (
+        "ee_sparc",
+        "joint_sparc",
+        "ee_jerk",
+        "joint_jerk",
+        "ee_path_length",
+        "ee_speed_mean",
+        "ee_speed_max",
+        "joint_tracking_rmse",
+    )
+}
 
 
 def _next_power_of_two(count: int) -> int:

@@ -47,16 +47,22 @@ def _store_files(out_dir: Path, files: dict[str, bytes]) -> None:
         os.replace(partial, target)
 
 
-def run_parallel(policy: Policy, policy_spec: PolicySpec, config: EvalConfig, out_dir: Path,
-                 workers: int | None = None, ray: str | None = None,
-                 show_progress: bool = True) -> list[EpisodeResult]:  # fmt: skip
+def run_parallel(
+    policy: Policy,
+    policy_spec: PolicySpec,
+    config: EvalConfig,
+    out_dir: Path,
+    workers: int | None = None,
+    ray: str | None = None,
+    show_progress: bool = True,
+) -> list[EpisodeResult]:
     """Run every missing episode on `workers` processes (or Ray actors when `ray` names a cluster, `auto`, or
     `local`) and append their results to `out_dir`; returns all results of this policy in `out_dir`.
 
     The same episodes and results as `run_evaluation`, in another order in `episodes.jsonl`."""
     from robolab_ms.agents.bindings import DEFAULT_ROBOT
-    from robolab_ms.eval.runner import _check_same_variations, _write_manifest, _write_tables
     from robolab_ms.eval.results import exclusive_writer
+    from robolab_ms.eval.runner import _check_same_variations, _write_manifest, _write_tables
     from robolab_ms.tasks.spec import load_task
 
     if workers is not None and workers < 1:
@@ -67,8 +73,13 @@ def run_parallel(policy: Policy, policy_spec: PolicySpec, config: EvalConfig, ou
     with exclusive_writer(out_dir):
         _check_same_variations(read_results(out_dir), policy, config, out_dir)
         _write_manifest(out_dir, policy, config)
-        bar = tqdm(total=len(specs) * config.episodes_at_most, desc=f"eval {policy.name}", unit="episode",
-                   disable=not show_progress, dynamic_ncols=True)  # fmt: skip
+        bar = tqdm(
+            total=len(specs) * config.episodes_at_most,
+            desc=f"eval {policy.name}",
+            unit="episode",
+            disable=not show_progress,
+            dynamic_ncols=True,
+        )
         pool: ProcessPool | RayPool | None = None
         graceful = False
         try:

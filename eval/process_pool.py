@@ -46,8 +46,16 @@ def _exit_on_sigterm(signum: int, frame: Any) -> None:
     raise SystemExit(128 + signum)
 
 
-def _worker_main(conn: Any, policy: PolicySpec | None, config: EvalConfig, out_dir: str, content_roots: list[str],
-                 parent_pid: int, threads: int, worker_class: type = EpisodeWorker) -> None:  # fmt: skip
+def _worker_main(
+    conn: Any,
+    policy: PolicySpec | None,
+    config: EvalConfig,
+    out_dir: str,
+    content_roots: list[str],
+    parent_pid: int,
+    threads: int,
+    worker_class: type = EpisodeWorker,
+) -> None:
     """A worker process: receive jobs, send ("result", result) or ("fatal", ...) back, until None arrives.
     `worker_class` runs the jobs: EpisodeWorker, or another class made and used the same way (`robolab validate`'s)."""
     _die_with_parent(parent_pid)
@@ -82,8 +90,14 @@ class ProcessPool:
     """N worker processes on this machine, started with `spawn` (a fresh interpreter each), one pipe each; each
     runs its jobs with a `worker_class(policy, config, out_dir, content_roots)` (EpisodeWorker: eval's episodes)."""
 
-    def __init__(self, count: int, policy: PolicySpec | None, config: EvalConfig, out_dir: Path,
-                 worker_class: type = EpisodeWorker) -> None:  # fmt: skip
+    def __init__(
+        self,
+        count: int,
+        policy: PolicySpec | None,
+        config: EvalConfig,
+        out_dir: Path,
+        worker_class: type = EpisodeWorker,
+    ) -> None:
         import multiprocessing
 
         from robolab_ms.content import user_content_roots
@@ -103,13 +117,25 @@ class ProcessPool:
                 os.environ.pop("OMP_NUM_THREADS", None)
         self.size = count
 
-    def _start(self, count: int, context: Any, policy: PolicySpec | None, config: EvalConfig, out_dir: Path,
-               roots: list[str], threads: int, worker_class: type) -> None:  # fmt: skip
+    def _start(
+        self,
+        count: int,
+        context: Any,
+        policy: PolicySpec | None,
+        config: EvalConfig,
+        out_dir: Path,
+        roots: list[str],
+        threads: int,
+        worker_class: type,
+    ) -> None:
         for index in range(count):
             parent_end, child_end = context.Pipe()
-            process = context.Process(target=_worker_main, name=f"robolab-worker-{index}", daemon=True,
-                                      args=(child_end, policy, config, str(out_dir), roots, os.getpid(), threads,
-                                            worker_class))  # fmt: skip
+            process = context.Process(
+                target=_worker_main,
+                name=f"robolab-worker-{index}",
+                daemon=True,
+                args=(child_end, policy, config, str(out_dir), roots, os.getpid(), threads, worker_class),
+            )
             process.start()
             child_end.close()
             self.processes.append(process)
@@ -147,9 +173,11 @@ class ProcessPool:
             raise_fatal(message, f"worker {index}", self.out_dir)
         process = self.processes[index]
         process.join(timeout=5)
-        raise RoboLabError(f"worker {index} (pid {process.pid}) ended with exit code {process.exitcode} while running "
-                           f"{job.name} seed {job.seed}. Finished episodes are kept in {self.out_dir}; rerun the same "
-                           "command to resume")  # fmt: skip
+        raise RoboLabError(
+            f"worker {index} (pid {process.pid}) ended with exit code {process.exitcode} while running "
+            f"{job.name} seed {job.seed}. Finished episodes are kept in {self.out_dir}; rerun the same "
+            "command to resume"
+        )
 
     def close(self, graceful: bool) -> None:
         if graceful:

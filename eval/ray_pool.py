@@ -111,13 +111,17 @@ class RayPool:
                 options["address"] = address
                 problem = _unreachable(address)
                 if problem:
-                    raise RoboLabError(f"--ray {address}: no Ray cluster answers there ({problem}); start one with "
-                                       "`ray start --head` or use --ray local")  # fmt: skip
+                    raise RoboLabError(
+                        f"--ray {address}: no Ray cluster answers there ({problem}); start one with "
+                        "`ray start --head` or use --ray local"
+                    )
             try:
                 ray.init(**options)
             except (ConnectionError, ValueError, RuntimeError) as exc:
-                raise RoboLabError(f"--ray {address}: cannot reach a Ray cluster there ({exc}); start one with "
-                                   "`ray start --head` or use --ray local") from None  # fmt: skip
+                raise RoboLabError(
+                    f"--ray {address}: cannot reach a Ray cluster there ({exc}); start one with "
+                    "`ray start --head` or use --ray local"
+                ) from None
         cpus = int(ray.cluster_resources().get("CPU", 1))
         self.size = count or max(1, cpus // RAY_ACTOR_CPUS)
         from robolab_ms.content import user_content_roots
@@ -139,9 +143,11 @@ class RayPool:
                 message = self.ray.get(ref)
             except self.ray.exceptions.RayError as exc:
                 job = busy[index]
-                raise RoboLabError(f"Ray actor {index} failed while running {job.name} seed {job.seed}: {exc}. "
-                                   f"Finished episodes are kept in {self.out_dir}; rerun the same command to "
-                                   "resume") from None  # fmt: skip
+                raise RoboLabError(
+                    f"Ray actor {index} failed while running {job.name} seed {job.seed}: {exc}. "
+                    f"Finished episodes are kept in {self.out_dir}; rerun the same command to "
+                    "resume"
+                ) from None
             if message[0] == "fatal":
                 raise_fatal(message, f"Ray actor {index}", self.out_dir)
             finished.append((index, message[1], message[2]))

@@ -153,7 +153,9 @@ class EpisodeRecorder:
             self.video.begin(self.video_path())
             self._add_video_frame(views, 0, info or {})
 
-    def on_step(self, action: Any, observation: Any, info: dict, terminated: Any = False, truncated: Any = False) -> None:
+    def on_step(
+        self, action: Any, observation: Any, info: dict, terminated: Any = False, truncated: Any = False
+    ) -> None:
         """Record one control step (call right after `env.step(action)`)."""
         if not self._started:
             return
@@ -183,10 +185,18 @@ class EpisodeRecorder:
         if not self._started:
             return extras
         self._started = False
-        targets = np.clip(np.asarray(self.actions, dtype=np.float64).reshape(-1, self.arm_dims + 1)[:, : self.arm_dims],
-                          self.arm_low, self.arm_high)  # fmt: skip
-        metrics = trajectory_metrics(np.asarray(self.gripper_base), np.asarray(self.arm), targets, 1.0 / self.rate_hz,
-                                     joint_velocities=np.asarray(self.arm_velocity))  # fmt: skip
+        targets = np.clip(
+            np.asarray(self.actions, dtype=np.float64).reshape(-1, self.arm_dims + 1)[:, : self.arm_dims],
+            self.arm_low,
+            self.arm_high,
+        )
+        metrics = trajectory_metrics(
+            np.asarray(self.gripper_base),
+            np.asarray(self.arm),
+            targets,
+            1.0 / self.rate_hz,
+            joint_velocities=np.asarray(self.arm_velocity),
+        )
         extras["metrics"] = {key: (None if math.isnan(value) else round(value, 6)) for key, value in metrics.items()}
         if self.options.writes_file:
             self._write_file(info, events, error)
@@ -223,8 +233,14 @@ class EpisodeRecorder:
         from robolab_ms.eval.video import Caption
 
         events = list(info["events"][0]) if "events" in info else []
-        caption = Caption(self.base.instruction, step, self.max_steps, self.score[-1] if self.score else 0.0,
-                          bool(self.success and self.success[-1]), tuple(events))  # fmt: skip
+        caption = Caption(
+            self.base.instruction,
+            step,
+            self.max_steps,
+            self.score[-1] if self.score else 0.0,
+            bool(self.success and self.success[-1]),
+            tuple(events),
+        )
         self.video.add(views, _numpy(self.base.render_rgb_array())[0], caption)
 
     def _open_file(self) -> None:
@@ -240,9 +256,15 @@ class EpisodeRecorder:
         for name, image in views.items():
             key = f"obs/sensor_data/{name}/rgb"
             if key not in self._group:
-                self._group.create_dataset(key, shape=(0, *image.shape), maxshape=(None, *image.shape),
-                                           chunks=(1, *image.shape), dtype=np.uint8, compression="gzip",
-                                           compression_opts=5)  # fmt: skip
+                self._group.create_dataset(
+                    key,
+                    shape=(0, *image.shape),
+                    maxshape=(None, *image.shape),
+                    chunks=(1, *image.shape),
+                    dtype=np.uint8,
+                    compression="gzip",
+                    compression_opts=5,
+                )
             dataset = self._group[key]
             dataset.resize(dataset.shape[0] + 1, axis=0)
             dataset[-1] = image
@@ -277,7 +299,9 @@ class EpisodeRecorder:
         os.replace(self._partial, path)
         json_path = path.with_suffix(".json")
         partial_json = json_path.with_name(json_path.name + ".partial")
-        partial_json.write_text(json.dumps(to_json_value(self._metadata(info, events, error)), indent=2), encoding="utf-8")
+        partial_json.write_text(
+            json.dumps(to_json_value(self._metadata(info, events, error)), indent=2), encoding="utf-8"
+        )
         os.replace(partial_json, json_path)
 
     def _metadata(self, info: dict, events: list, error: str | None) -> dict[str, Any]:
@@ -289,10 +313,16 @@ class EpisodeRecorder:
             "env_info": {"env_id": spec.env_id, "env_kwargs": kwargs, "max_episode_steps": spec.max_episode_steps},
             "source_type": "robolab eval",
             "source_desc": f"robolab_ms evaluation of policy {self.policy}",
-            "episodes": [{
-                "episode_id": 0, "episode_seed": self.seed, "reset_kwargs": {"seed": self.seed, "options": {}},
-                "control_mode": base.control_mode, "elapsed_steps": len(self.actions), "success": success,
-            }],  # fmt: skip
+            "episodes": [
+                {
+                    "episode_id": 0,
+                    "episode_seed": self.seed,
+                    "reset_kwargs": {"seed": self.seed, "options": {}},
+                    "control_mode": base.control_mode,
+                    "elapsed_steps": len(self.actions),
+                    "success": success,
+                }
+            ],
             "robolab": {
                 "layout_version": LAYOUT_VERSION,
                 "task": spec.name,
@@ -331,16 +361,21 @@ class ReplayReport:
 
     @property
     def matches(self) -> bool:
-        return (self.first_different_step is None and self.recorded_success == self.replayed_success
-                and abs(self.recorded_score - self.replayed_score) <= max(self.tolerance, 1e-6))  # fmt: skip
+        return (
+            self.first_different_step is None
+            and self.recorded_success == self.replayed_success
+            and abs(self.recorded_score - self.replayed_score) <= max(self.tolerance, 1e-6)
+        )
 
     def line(self) -> str:
         verdict = "same" if self.matches else f"DIFFERS from step {self.first_different_step}"
         if self.first_different_step == 0:
             verdict += " (the initial state: the task, its scene or the catalog changed since the recording)"
-        return (f"{self.file.name}: {self.steps} steps, {verdict} (largest state difference "
-                f"{self.max_state_difference:.3g}); success {self.recorded_success} -> {self.replayed_success}, "
-                f"score {self.recorded_score:.2f} -> {self.replayed_score:.2f}")  # fmt: skip
+        return (
+            f"{self.file.name}: {self.steps} steps, {verdict} (largest state difference "
+            f"{self.max_state_difference:.3g}); success {self.recorded_success} -> {self.replayed_success}, "
+            f"score {self.recorded_score:.2f} -> {self.replayed_score:.2f}"
+        )
 
 
 def find_recordings(path: Path) -> list[Path]:
@@ -351,8 +386,10 @@ def find_recordings(path: Path) -> list[Path]:
     path = Path(path)
     if path.is_file():
         if path.suffix != ".h5" or not path.with_suffix(".json").exists():
-            raise RoboLabError(f"{path}: not a recording; give an .h5 written by `robolab eval --record` (its .json "
-                               "must be next to it) or a results folder")  # fmt: skip
+            raise RoboLabError(
+                f"{path}: not a recording; give an .h5 written by `robolab eval --record` (its .json "
+                "must be next to it) or a results folder"
+            )
         return [path]
     if not path.is_dir():
         raise RoboLabError(f"{path}: no such file or folder")
@@ -395,7 +432,9 @@ def replay_recording(file: Path, tolerance: float = 0.0) -> ReplayReport:
         env_id, kwargs = meta["env_info"]["env_id"], dict(meta["env_info"]["env_kwargs"])
         episode = meta["episodes"][0]
     except (KeyError, IndexError, TypeError) as error:
-        raise RoboLabError(f"{file.with_suffix('.json')}: field {error} missing; not a ManiSkill trajectory json") from None
+        raise RoboLabError(
+            f"{file.with_suffix('.json')}: field {error} missing; not a ManiSkill trajectory json"
+        ) from None
     robolab = meta.get("robolab", {})
     with h5py.File(file, "r") as h5:
         group = h5[f"traj_{episode['episode_id']}"]
@@ -425,5 +464,14 @@ def replay_recording(file: Path, tolerance: float = 0.0) -> ReplayReport:
         replayed_score = float(_numpy(info["score"]).reshape(-1)[0]) if len(actions) else 0.0
     finally:
         env.close()
-    return ReplayReport(file, len(actions), worst, first, bool(robolab.get("success", episode.get("success", False))),
-                        replayed_success, float(robolab.get("score", recorded_score)), replayed_score, tolerance)  # fmt: skip
+    return ReplayReport(
+        file,
+        len(actions),
+        worst,
+        first,
+        bool(robolab.get("success", episode.get("success", False))),
+        replayed_success,
+        float(robolab.get("score", recorded_score)),
+        replayed_score,
+        tolerance,
+    )

@@ -32,8 +32,9 @@ WRITER_LOCK_FILE = ".writer.lock"  # held by the run that writes the folder (see
 RESULTS_VERSION = 2
 SIMULATOR = "robolab_ms"  # the `simulator` of the episodes `robolab eval` runs
 # the fields of a result line that measure time: they differ from run to run of the very same episode
-TIMING_FIELDS = frozenset({"wall_seconds", "inference_ms_mean", "inference_ms_p95", "inference_ms_max", "env_step_ms",
-                           "steps_per_second"})
+TIMING_FIELDS = frozenset(
+    {"wall_seconds", "inference_ms_mean", "inference_ms_p95", "inference_ms_max", "env_step_ms", "steps_per_second"}
+)
 
 
 @dataclass
@@ -120,8 +121,9 @@ def exclusive_writer(out_dir: Path) -> Iterator[None]:
         if not _lock(handle.fileno(), wait=False):
             handle.seek(0)
             holder = handle.read().strip() or "another process"
-            raise RoboLabError(f"{out_dir} is being written by {holder}; wait for that run to end or choose another "
-                               "--out")  # fmt: skip
+            raise RoboLabError(
+                f"{out_dir} is being written by {holder}; wait for that run to end or choose another --out"
+            )
         handle.seek(0)
         handle.truncate()
         handle.write(f"robolab eval (pid {os.getpid()})\n")
@@ -150,8 +152,9 @@ def read_results(out_dir: Path) -> list[EpisodeResult]:
     try:
         data = path.read_bytes()
     except OSError as exc:
-        raise RoboLabError(f"{path}: cannot be read ({exc.strerror or exc}); give a results folder written by "
-                           "`robolab eval --out DIR`") from None  # fmt: skip
+        raise RoboLabError(
+            f"{path}: cannot be read ({exc.strerror or exc}); give a results folder written by `robolab eval --out DIR`"
+        ) from None
     results: dict[tuple, EpisodeResult] = {}
     for number, raw in enumerate(data.split(b"\n"), start=1):
         try:
@@ -169,8 +172,10 @@ def read_results(out_dir: Path) -> list[EpisodeResult]:
     return list(results.values())
 
 
-LINE_FIX = ("Correct the line or delete it (a later `robolab eval` with the same options runs that episode again); "
-            "docs/results.md lists the fields")  # fmt: skip
+LINE_FIX = (
+    "Correct the line or delete it (a later `robolab eval` with the same options runs that episode again); "
+    "docs/results.md lists the fields"
+)
 
 
 # Value checkers of the results format, shared by the readers of result lines and of recordings: each returns the
@@ -277,8 +282,10 @@ def as_events(value: Any) -> list[dict[str, Any]]:
         raise InvalidValue(f"is {shown(value)}, expected a list of events")
     for index, event in enumerate(value):
         if not isinstance(event, dict) or not isinstance(event.get("type"), str):
-            raise InvalidValue(f"item {index} is {shown(event)}, expected an event such as "
-                           '{"step": 12, "type": "target_dropped", "object": "banana"}')  # fmt: skip
+            raise InvalidValue(
+                f"item {index} is {shown(event)}, expected an event such as "
+                '{"step": 12, "type": "target_dropped", "object": "banana"}'
+            )
     return value
 
 

@@ -19,7 +19,12 @@ from tqdm import tqdm
 from robolab_ms.errors import RoboLabError, make_folder
 from robolab_ms.eval.recording import EpisodeRecorder, RecordOptions
 from robolab_ms.eval.results import (
-    EpisodeResult, append_result, episode_key, exclusive_writer, read_results, to_json_value,
+    EpisodeResult,
+    append_result,
+    episode_key,
+    exclusive_writer,
+    read_results,
+    to_json_value,
 )
 from robolab_ms.policies import EpisodeInfo, Policy, PolicyReplyError, PolicyUnavailableError
 
@@ -38,7 +43,9 @@ class EvalConfig:
     first_seed: int = 0
     max_steps: int | None = None  # cut episodes short (for smoke tests); None = the task's episode length
     record: RecordOptions = field(default_factory=RecordOptions)  # trajectory file, images, video per episode
-    episodes_adaptive: int | None = None  # if set: per task, add episodes until the interval is narrow, at most this many
+    episodes_adaptive: int | None = (
+        None  # if set: per task, add episodes until the interval is narrow, at most this many
+    )
     ci_width: float = 0.14  # adaptive sampling stops once the 95 % Beta interval of the success rate is this narrow
     retry_errors: bool = False  # run episodes again whose last result is errored (otherwise a rerun skips them)
     save_actions: bool = False  # keep each episode's executed actions (OUT/actions/..., for the replay policy)
@@ -54,8 +61,12 @@ class EvalConfig:
 def env_kwargs(needs_images: bool, config: EvalConfig) -> dict[str, Any]:
     """The keyword arguments of `gym.make` for every task of this evaluation, for a policy that reads camera
     images (`needs_images`) or not."""
-    kwargs = {"obs_mode": "rgb" if needs_images else "state_dict", "instruction": config.instruction,
-              "robot_uids": config.robot, "render_backend": "cpu"}  # fmt: skip
+    kwargs = {
+        "obs_mode": "rgb" if needs_images else "state_dict",
+        "instruction": config.instruction,
+        "robot_uids": config.robot,
+        "render_backend": "cpu",
+    }
     if config.variations:
         kwargs["variations"] = config.variations
     return kwargs
@@ -74,7 +85,9 @@ def adaptive_sampling_done(successes: int, episodes: int, max_episodes: int, ci_
     return high - low <= ci_width
 
 
-def run_evaluation(policy: Policy, config: EvalConfig, out_dir: Path, show_progress: bool = True) -> list[EpisodeResult]:
+def run_evaluation(
+    policy: Policy, config: EvalConfig, out_dir: Path, show_progress: bool = True
+) -> list[EpisodeResult]:
     """Run every missing episode and append its result; returns all results of this policy in `out_dir`.
 
     The policy is connected first: PolicyUnavailableError (no server at the address) stops before any episode."""
@@ -103,15 +116,21 @@ def _run_all(policy: Policy, config: EvalConfig, out_dir: Path, show_progress: b
     done = {r.key(): r for r in read_results(out_dir)}
     _check_same_variations(done.values(), policy, config, out_dir)
     _check_same_timing(done.values(), policy, out_dir)
-    bar = tqdm(total=len(specs) * config.episodes_at_most, desc=f"eval {policy.name}", unit="episode",
-               disable=not show_progress, dynamic_ncols=True)  # fmt: skip
+    bar = tqdm(
+        total=len(specs) * config.episodes_at_most,
+        desc=f"eval {policy.name}",
+        unit="episode",
+        disable=not show_progress,
+        dynamic_ncols=True,
+    )
     env, env_task, recorder = None, None, None
     try:
         for spec in specs:
             successes, count = 0, 0
             for seed in range(config.first_seed, config.first_seed + config.episodes_at_most):
-                if config.episodes_adaptive and adaptive_sampling_done(successes, count, config.episodes_adaptive,
-                                                                       config.ci_width):  # fmt: skip
+                if config.episodes_adaptive and adaptive_sampling_done(
+                    successes, count, config.episodes_adaptive, config.ci_width
+                ):
                     bar.total -= config.episodes_at_most - count
                     bar.refresh()
                     break
@@ -161,8 +180,9 @@ def checked_action(action: np.ndarray, space: Any, source: str) -> tuple[np.ndar
     `source`), clipped to its bounds; and whether an arm joint target was clipped (the gripper's range is clipped
     without counting)."""
     if action.shape != space.shape or not np.isfinite(action).all():
-        raise PolicyReplyError(f"{source} returned the action {action.tolist()}; expected {space.shape[0]} finite "
-                               "numbers")  # fmt: skip
+        raise PolicyReplyError(
+            f"{source} returned the action {action.tolist()}; expected {space.shape[0]} finite numbers"
+        )
     clipped = np.clip(action, space.low, space.high)
     return clipped, bool(np.any(np.abs(clipped[:-1] - action[:-1]) > 1e-6))
 
@@ -235,8 +255,16 @@ def _reconnect(policy: Policy, seconds: float, out_dir: Path) -> None:
     )
 
 
-def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: int, bar: tqdm,
-                 recorder: EpisodeRecorder | None = None, out_dir: Path | None = None) -> EpisodeResult:  # fmt: skip
+def _run_episode(
+    env: Any,
+    policy: Policy,
+    spec: Any,
+    config: EvalConfig,
+    seed: int,
+    bar: tqdm,
+    recorder: EpisodeRecorder | None = None,
+    out_dir: Path | None = None,
+) -> EpisodeResult:
     base = env.unwrapped
     max_steps = min(spec.max_episode_steps, config.max_steps or spec.max_episode_steps)
     start = time.perf_counter()
@@ -251,8 +279,15 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
             recorder.on_reset(seed, observation, info, max_steps)
         if policy.privileged:
             policy.bind(env)
-        policy.start_episode(EpisodeInfo(task=spec.name, instruction_variant=config.instruction,
-                                         instruction=base.instruction, robot=config.robot, seed=seed))  # fmt: skip
+        policy.start_episode(
+            EpisodeInfo(
+                task=spec.name,
+                instruction_variant=config.instruction,
+                instruction=base.instruction,
+                robot=config.robot,
+                seed=seed,
+            )
+        )
         policy.reset(base.instruction, space, seed)
         while steps < max_steps:
             action = stats.act(policy, droid.observation(observation) if droid is not None else observation, space)
@@ -278,7 +313,9 @@ def _run_episode(env: Any, policy: Policy, spec: Any, config: EvalConfig, seed: 
     if config.save_actions:
         from robolab_ms.policies.replay import actions_file, save_actions
 
-        save_actions(actions_file(out_dir, policy.name, spec.name, config.instruction, config.robot, seed), stats.actions)
+        save_actions(
+            actions_file(out_dir, policy.name, spec.name, config.instruction, config.robot, seed), stats.actions
+        )
     return EpisodeResult(
         task=spec.name,
         instruction_variant=config.instruction,
@@ -311,16 +348,20 @@ def _check_same_variations(done: Any, policy: Policy, config: EvalConfig, out_di
     if others:
         found = ", ".join(sorted(f"'{o}'" if o else "none" for o in others))
         given = f"'{config.variations}'" if config.variations else "none"
-        raise RoboLabError(f"{out_dir} holds episodes of policy '{policy.name}' run with variations {found}, not "
-                           f"{given}; give another --out for these settings")  # fmt: skip
+        raise RoboLabError(
+            f"{out_dir} holds episodes of policy '{policy.name}' run with variations {found}, not "
+            f"{given}; give another --out for these settings"
+        )
 
 
 def _check_same_timing(done: Any, policy: Policy, out_dir: Path) -> None:
     """A results folder holds one policy's episodes either all synchronous or all in real time (`--realtime`)."""
     if any(r.realtime != policy.realtime for r in done if r.policy == policy.name):
         found, given = ("synchronously", "--realtime") if policy.realtime else ("with --realtime", "synchronously")
-        raise RoboLabError(f"{out_dir} holds episodes of policy '{policy.name}' run {found}; to run it {given}, give "
-                           "another --out (or --policy-name)")  # fmt: skip
+        raise RoboLabError(
+            f"{out_dir} holds episodes of policy '{policy.name}' run {found}; to run it {given}, give "
+            "another --out (or --policy-name)"
+        )
 
 
 def _write_manifest(out_dir: Path, policy: Policy, config: EvalConfig) -> None:
@@ -349,8 +390,16 @@ def rerun_command(policy: Policy, config: EvalConfig, out_dir: Path) -> str:
     words = ["robolab", "eval", "--policy", policy.made_as or policy.name]
     if policy.made_as:
         words += ["--policy-name", policy.name]
-    words += ["--task", *config.tasks, "--instruction", config.instruction, "--seed", str(config.first_seed), "--out",
-              str(out_dir)]  # fmt: skip
+    words += [
+        "--task",
+        *config.tasks,
+        "--instruction",
+        config.instruction,
+        "--seed",
+        str(config.first_seed),
+        "--out",
+        str(out_dir),
+    ]
     if config.episodes_adaptive:
         words += ["--episodes-adaptive", str(config.episodes_adaptive), "--ci-width", f"{config.ci_width:g}"]
     else:
@@ -376,8 +425,13 @@ def rerun_command(policy: Policy, config: EvalConfig, out_dir: Path) -> str:
 def _git_dirty() -> bool | None:
     """Whether tracked files differ from the recorded revision (None outside a git checkout)."""
     try:
-        output = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                                text=True, timeout=5, cwd=Path(__file__).parent)  # fmt: skip
+        output = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            cwd=Path(__file__).parent,
+        )
         return bool(output.stdout.strip()) if output.returncode == 0 else None
     except (OSError, subprocess.SubprocessError):
         return None
@@ -385,8 +439,9 @@ def _git_dirty() -> bool | None:
 
 def _git_revision() -> str | None:
     try:
-        output = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5,
-                                cwd=Path(__file__).parent)  # fmt: skip
+        output = subprocess.run(
+            ["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5, cwd=Path(__file__).parent
+        )
         return output.stdout.strip() or None
     except (OSError, subprocess.SubprocessError):
         return None
@@ -398,5 +453,10 @@ def _variation_manifest(config: EvalConfig) -> dict[str, Any]:
         return {}
     from robolab_ms.variations import Variations
 
-    return {"variations": {"settings": config.variations, "condition": config.condition,
-                           "ranges": Variations.create(config.variations).ranges()}}  # fmt: skip
+    return {
+        "variations": {
+            "settings": config.variations,
+            "condition": config.condition,
+            "ranges": Variations.create(config.variations).ranges(),
+        }
+    }

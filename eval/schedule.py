@@ -56,8 +56,9 @@ class _TaskState:
 class Schedule:
     """Which episode each worker runs next, which results are written, held back or dropped (parent side)."""
 
-    def __init__(self, config: EvalConfig, specs: list[Any], policy_name: str, out_dir: Path, workers: int,
-                 bar: tqdm) -> None:  # fmt: skip
+    def __init__(
+        self, config: EvalConfig, specs: list[Any], policy_name: str, out_dir: Path, workers: int, bar: tqdm
+    ) -> None:
         from robolab_ms.eval.runner import ADAPTIVE_MIN_EPISODES
 
         self.config, self.out_dir, self.workers, self.bar = config, Path(out_dir), workers, bar
@@ -174,7 +175,8 @@ def _drop_files(out_dir: Path, result: EpisodeResult, config: EvalConfig) -> Non
     if config.save_actions:
         from robolab_ms.policies.replay import actions_file
 
-        paths.append(actions_file(out_dir, result.policy, result.task, result.instruction_variant, result.robot,
-                                  result.seed))  # fmt: skip
+        paths.append(
+            actions_file(out_dir, result.policy, result.task, result.instruction_variant, result.robot, result.seed)
+        )
     for path in paths:
         path.unlink(missing_ok=True)

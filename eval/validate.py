@@ -66,8 +66,9 @@ def check_rest(task: str, seeds: range, variations: str | None = None) -> tuple[
 
     spec = load_task(task)
     extra = {"variations": variations} if variations else {}
-    env = gym.make(register_task_file(spec.file), task=str(spec.file), obs_mode="state_dict", render_backend="cpu",
-                   **extra)  # fmt: skip
+    env = gym.make(
+        register_task_file(spec.file), task=str(spec.file), obs_mode="state_dict", render_backend="cpu", **extra
+    )
     base = env.unwrapped
     worst, solved = 0.0, 0
     try:
@@ -229,8 +230,11 @@ def explain_failure(result: EpisodeResult, watch: EpisodeWatch | None, spec: Any
         elif name not in watch.touched:
             findings.append(f"{name} never grasped (the fingers never touched it)")
         elif name in final.held:
-            extra = ("; the placement is right, but require_gripper_detached needs it let go of"
-                     if placed[name] and condition.require_gripper_detached else "")  # fmt: skip
+            extra = (
+                "; the placement is right, but require_gripper_detached needs it let go of"
+                if placed[name] and condition.require_gripper_detached
+                else ""
+            )
             findings.append(f"{name} still held at the end{extra}")
         elif placed[name]:
             findings.append(f"{name} placed, but {_contact_flag(condition)} at the end")
@@ -238,12 +242,15 @@ def explain_failure(result: EpisodeResult, watch: EpisodeWatch | None, spec: Any
             last = ends[name][-1] if ends[name] else None
             drops = [end for end in ends[name] if end.gripper_closed]
             if last is not None and last.gripper_closed:
-                findings.append(f"{name} dropped at step {last.step} (slipped out of the closed gripper "
-                                f"{last.height * 100:.0f} cm above the table); {describe(condition)} false at the end")
+                findings.append(
+                    f"{name} dropped at step {last.step} (slipped out of the closed gripper "
+                    f"{last.height * 100:.0f} cm above the table); {describe(condition)} false at the end"
+                )
             elif last is not None:
                 dropped = f" after {len(drops)} drop(s)" if drops else ""
-                findings.append(f"{name} placed (let go at step {last.step}{dropped}) but {describe(condition)} false "
-                                "at the end")  # fmt: skip
+                findings.append(
+                    f"{name} placed (let go at step {last.step}{dropped}) but {describe(condition)} false at the end"
+                )
             else:
                 findings.append(f"{name} touched but {describe(condition)} false at the end")
     if not findings:
@@ -258,8 +265,10 @@ def _event_summary(events: list[dict]) -> str:
     seen: dict[tuple[str, str], list[int]] = {}
     for event in events:
         seen.setdefault((event["type"], event["object"]), []).append(event["step"])
-    return ", ".join(f"{kind} {obj} @{steps[0]}" + (f" (x{len(steps)})" if len(steps) > 1 else "")
-                     for (kind, obj), steps in seen.items())  # fmt: skip
+    return ", ".join(
+        f"{kind} {obj} @{steps[0]}" + (f" (x{len(steps)})" if len(steps) > 1 else "")
+        for (kind, obj), steps in seen.items()
+    )
 
 
 def group_explanations(explained: list[tuple[int, str]]) -> str:
@@ -275,12 +284,14 @@ def validation_config(task_files: tuple[str, ...], seeds: int, first_seed: int, 
     """The evaluation settings of the random and the oracle episodes of a validation run."""
     from robolab_ms.agents import DEFAULT_ROBOT
 
-    return EvalConfig(tasks=task_files, episodes=seeds, first_seed=first_seed, robot=DEFAULT_ROBOT,
-                      variations=variations)  # fmt: skip
+    return EvalConfig(
+        tasks=task_files, episodes=seeds, first_seed=first_seed, robot=DEFAULT_ROBOT, variations=variations
+    )
 
 
-def task_row(spec: Any, seeds: range, rest: tuple[float, int], results: list[EpisodeResult],
-             watches: dict[int, EpisodeWatch]) -> TaskValidation:  # fmt: skip
+def task_row(
+    spec: Any, seeds: range, rest: tuple[float, int], results: list[EpisodeResult], watches: dict[int, EpisodeWatch]
+) -> TaskValidation:
     """One task's row from its rest check (largest drift in m, seeds solved at reset), the random and oracle episodes
     of its seeds among `results`, and the watches of the oracle episodes run now (those resumed have none)."""
     from robolab_ms.agents import DEFAULT_ROBOT
@@ -322,8 +333,9 @@ def task_row(spec: Any, seeds: range, rest: tuple[float, int], results: list[Epi
     )
 
 
-def validate_task(task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True,
-                  variations: str | None = None) -> TaskValidation:  # fmt: skip
+def validate_task(
+    task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True, variations: str | None = None
+) -> TaskValidation:
     """Run every check on one task (a name or a task file), under `variations` if given, in this process; episodes
     go to `out_dir`."""
     from robolab_ms.envs import register_task_file
@@ -367,8 +379,10 @@ class ValidationWorker:
         from robolab_ms.policies import PolicyOptions
 
         self.config = config
-        self.episode_workers = {name: EpisodeWorker(PolicySpec(name, PolicyOptions()), config, out_dir, content_roots)
-                         for name in (RANDOM, ORACLE)}  # fmt: skip
+        self.episode_workers = {
+            name: EpisodeWorker(PolicySpec(name, PolicyOptions()), config, out_dir, content_roots)
+            for name in (RANDOM, ORACLE)
+        }
         self.episode_workers[ORACLE].policy = WatchedPolicy(self.episode_workers[ORACLE].policy)
 
     def run(self, job: ValidationJob) -> tuple[float, int] | tuple[EpisodeResult, EpisodeWatch | None]:
@@ -401,8 +415,15 @@ class _TaskProgress:
     row: TaskValidation | None = None
 
 
-def validate_parallel(tasks: list[str], seeds: int, out_dir: Path, first_seed: int = 0, workers: int = 2,
-                      show_progress: bool = True, variations: str | None = None) -> list[TaskValidation]:  # fmt: skip
+def validate_parallel(
+    tasks: list[str],
+    seeds: int,
+    out_dir: Path,
+    first_seed: int = 0,
+    workers: int = 2,
+    show_progress: bool = True,
+    variations: str | None = None,
+) -> list[TaskValidation]:
     """Validate `tasks` (names or task files) with their rest checks and episodes spread over `workers` processes;
     the same rows and episodes as `validate_task` task after task. This process alone writes `out_dir`: each
     episode's line as it arrives (a rerun resumes from them) and the report whenever a task is complete (its rows
@@ -440,8 +461,14 @@ def validate_parallel(tasks: list[str], seeds: int, out_dir: Path, first_seed: i
                         jobs.append(ValidationJob(check, str(spec.file), spec.name, seed))
             todo += jobs
             progress[spec.name] = _TaskProgress(spec, len(jobs))
-        bar = tqdm(total=2 * seeds * len(specs), initial=done_before, desc="validate", unit="episode",
-                   disable=not show_progress, dynamic_ncols=True)  # fmt: skip
+        bar = tqdm(
+            total=2 * seeds * len(specs),
+            initial=done_before,
+            desc="validate",
+            unit="episode",
+            disable=not show_progress,
+            dynamic_ncols=True,
+        )
         pool: ProcessPool | None = None
         graceful = False
         try:
@@ -456,8 +483,9 @@ def validate_parallel(tasks: list[str], seeds: int, out_dir: Path, first_seed: i
                         busy[index], current[index] = job, job.name
                 if not busy:
                     break
-                bar.set_postfix_str(", ".join(f"{job.name} {job.check} {job.seed}" for job in busy.values()),
-                                    refresh=False)  # fmt: skip
+                bar.set_postfix_str(
+                    ", ".join(f"{job.name} {job.check} {job.seed}" for job in busy.values()), refresh=False
+                )
                 for index, outcome, _ in pool.wait(busy):
                     job = busy.pop(index)
                     task = progress[job.name]

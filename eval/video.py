@@ -163,8 +163,15 @@ class EpisodeVideo:
                     path = payload
                     path.parent.mkdir(parents=True, exist_ok=True)
                     partial = path.with_name(path.stem + ".partial.mp4")
-                    writer = imageio.get_writer(partial, format="FFMPEG", fps=self.fps, codec="libx264", quality=7,
-                                                macro_block_size=16, ffmpeg_log_level="error")  # fmt: skip
+                    writer = imageio.get_writer(
+                        partial,
+                        format="FFMPEG",
+                        fps=self.fps,
+                        codec="libx264",
+                        quality=7,
+                        macro_block_size=16,
+                        ffmpeg_log_level="error",
+                    )
                 elif kind == "frame" and writer is not None:
                     writer.append_data(compose_frame(*payload, width=self.width))
                 elif kind == _END and writer is not None:

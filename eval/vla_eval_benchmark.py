@@ -111,8 +111,10 @@ class RoboLabBenchmark(StepBenchmark):
         from robolab_ms.variations import Variations, suite_conditions
 
         if instruction not in INSTRUCTION_VARIANTS:
-            raise RoboLabError(f"vla-eval params.instruction: '{instruction}' is not an instruction variant; use "
-                               f"one of {', '.join(INSTRUCTION_VARIANTS)}")  # fmt: skip
+            raise RoboLabError(
+                f"vla-eval params.instruction: '{instruction}' is not an instruction variant; use "
+                f"one of {', '.join(INSTRUCTION_VARIANTS)}"
+            )
         if not isinstance(images, bool):
             raise RoboLabError(f"vla-eval params.images: expected true or false, got {images!r}")
         if suite is not None and not isinstance(suite, str):
@@ -121,8 +123,12 @@ class RoboLabBenchmark(StepBenchmark):
         self.max_steps = None if max_steps is None else _whole_number(max_steps, "max_steps", least=1)
         self.instruction, self.images = instruction, images
         self.robot = robot_binding(robot or DEFAULT_ROBOT)
-        names = select_tasks(_names(tasks, "tasks") or [ALL_TASKS], _names(tag, "tag"),
-                             _names(difficulty, "difficulty"), _names(scene, "scene"))  # fmt: skip
+        names = select_tasks(
+            _names(tasks, "tasks") or [ALL_TASKS],
+            _names(tag, "tag"),
+            _names(difficulty, "difficulty"),
+            _names(scene, "scene"),
+        )
         vary_names = _names(vary, "vary")
         vary_text = Variations.create(",".join(vary_names)).text if vary_names else ""
         conditions = suite_conditions(suite)[1] if suite else {"": ""}
@@ -138,13 +144,19 @@ class RoboLabBenchmark(StepBenchmark):
             length = min(spec.max_episode_steps, self.max_steps or spec.max_episode_steps)
             for condition, settings in conditions.items():
                 text = ",".join(t for t in (vary_text, settings) if t)
-                self._tasks.append({
-                    "name": f"{spec.name}/{condition}" if condition else spec.name, "task": spec.name,
-                    "env_id": spec.env_id, "instruction_variant": instruction,
-                    "instruction": spec.instructions[instruction], "robot": self.robot.uid,
-                    "variations": Variations.create(text).text if text else "", "condition": condition,
-                    "max_steps": length,
-                })  # fmt: skip
+                self._tasks.append(
+                    {
+                        "name": f"{spec.name}/{condition}" if condition else spec.name,
+                        "task": spec.name,
+                        "env_id": spec.env_id,
+                        "instruction_variant": instruction,
+                        "instruction": spec.instructions[instruction],
+                        "robot": self.robot.uid,
+                        "variations": Variations.create(text).text if text else "",
+                        "condition": condition,
+                        "max_steps": length,
+                    }
+                )
         self._env: Any = None
         self._env_key: tuple[str, str] | None = None
         self._episode: dict[str, Any] = {}
@@ -160,9 +172,16 @@ class RoboLabBenchmark(StepBenchmark):
 
     def get_action_spec(self) -> dict[str, DimSpec]:
         arm = len(self.robot.arm_joints)
-        return {"actions": DimSpec("actions", arm + 1, ACTION_FORMAT, accepts=frozenset({ACTION_FORMAT, "raw"}),
-                                   description=f"{arm} absolute arm joint targets (rad), then the gripper "
-                                   "(0 open, 1 closed; above 0.5 closes)")}  # fmt: skip
+        return {
+            "actions": DimSpec(
+                "actions",
+                arm + 1,
+                ACTION_FORMAT,
+                accepts=frozenset({ACTION_FORMAT, "raw"}),
+                description=f"{arm} absolute arm joint targets (rad), then the gripper "
+                "(0 open, 1 closed; above 0.5 closes)",
+            )
+        }
 
     def get_observation_spec(self) -> dict[str, DimSpec]:
         from robolab_ms.policies.openpi import OPENPI_KEY_PREFIX
@@ -171,8 +190,9 @@ class RoboLabBenchmark(StepBenchmark):
         if self.images:
             for key in ("exterior_image_1_left", "wrist_image_left"):
                 spec[OPENPI_KEY_PREFIX + key] = DimSpec(key, 0, IMAGE_RGB.format, description="224x224, padded")
-        spec[OPENPI_KEY_PREFIX + "joint_position"] = DimSpec("joint_position", len(self.robot.arm_joints),
-                                                             STATE_JOINT.format)  # fmt: skip
+        spec[OPENPI_KEY_PREFIX + "joint_position"] = DimSpec(
+            "joint_position", len(self.robot.arm_joints), STATE_JOINT.format
+        )
         spec[OPENPI_KEY_PREFIX + "gripper_position"] = DimSpec("gripper_position", 1, "continuous_01", (0.0, 1.0))
         spec["prompt"] = DimSpec("prompt", 0, LANGUAGE.format)
         return spec
@@ -209,8 +229,16 @@ class RoboLabBenchmark(StepBenchmark):
         self._metrics.on_reset(seed, observation, info, task["max_steps"])
         space = base.single_action_space
         task.update(seed=seed, action_low=[float(v) for v in space.low], action_high=[float(v) for v in space.high])
-        self._episode = {"task": task, "seed": seed, "steps": 0, "success_step": None, "clipped_steps": 0,
-                         "info": info, "variation": base.variation_params, "result": None}  # fmt: skip
+        self._episode = {
+            "task": task,
+            "seed": seed,
+            "steps": 0,
+            "success_step": None,
+            "clipped_steps": 0,
+            "info": info,
+            "variation": base.variation_params,
+            "result": None,
+        }
         self._recorder.record_video(self._frame(observation))
         return observation
 
@@ -228,8 +256,13 @@ class RoboLabBenchmark(StepBenchmark):
         if success:
             episode["success_step"] = episode["steps"]
         ended, cut = bool(terminated[0]), bool(truncated[0])
-        self._recorder.record_step(success=success, score=float(info["score"][0]), progress=float(info["progress"][0]),
-                                   terminated=ended, truncated=cut)  # fmt: skip
+        self._recorder.record_step(
+            success=success,
+            score=float(info["score"][0]),
+            progress=float(info["progress"][0]),
+            terminated=ended,
+            truncated=cut,
+        )
         self._recorder.record_video(self._frame(observation))
         done = ended or cut or episode["steps"] >= episode["task"]["max_steps"]
         return StepResult(obs=observation, reward=float(success), done=done, info=info)
@@ -250,16 +283,29 @@ class RoboLabBenchmark(StepBenchmark):
             info, task = episode["info"], episode["task"]
             extras = self._metrics.finish(info)
             counts = extras["event_counts"]
-            episode["result"] = to_json_value({
-                "success": bool(info["success"][0]), "score": float(info["score"][0]),
-                "progress": float(info["progress"][0]), "steps": episode["steps"], "max_steps": task["max_steps"],
-                "success_step": episode["success_step"], "clipped_steps": episode["clipped_steps"],
-                **{kind: counts.get(kind, 0) for kind in EVENT_TYPES}, **extras.get("metrics", {}),
-                "task": task["task"], "instruction_variant": task["instruction_variant"],
-                "instruction": task["instruction"], "robot": task["robot"], "seed": episode["seed"],
-                "variations": task["variations"], "condition": task["condition"], "variation": episode["variation"],
-                "events": list(info["events"][0]), "event_objects": extras["event_objects"],
-            })  # fmt: skip
+            episode["result"] = to_json_value(
+                {
+                    "success": bool(info["success"][0]),
+                    "score": float(info["score"][0]),
+                    "progress": float(info["progress"][0]),
+                    "steps": episode["steps"],
+                    "max_steps": task["max_steps"],
+                    "success_step": episode["success_step"],
+                    "clipped_steps": episode["clipped_steps"],
+                    **{kind: counts.get(kind, 0) for kind in EVENT_TYPES},
+                    **extras.get("metrics", {}),
+                    "task": task["task"],
+                    "instruction_variant": task["instruction_variant"],
+                    "instruction": task["instruction"],
+                    "robot": task["robot"],
+                    "seed": episode["seed"],
+                    "variations": task["variations"],
+                    "condition": task["condition"],
+                    "variation": episode["variation"],
+                    "events": list(info["events"][0]),
+                    "event_objects": extras["event_objects"],
+                }
+            )
         return dict(episode["result"])
 
     def cleanup(self) -> None:
@@ -278,8 +324,12 @@ class RoboLabBenchmark(StepBenchmark):
         from robolab_ms.eval.recording import EpisodeRecorder, RecordOptions
         from robolab_ms.eval.runner import EvalConfig, env_kwargs
 
-        config = EvalConfig(tasks=(task["task"],), instruction=self.instruction, robot=self.robot.uid,
-                            variations=task["variations"] or None)  # fmt: skip
+        config = EvalConfig(
+            tasks=(task["task"],),
+            instruction=self.instruction,
+            robot=self.robot.uid,
+            variations=task["variations"] or None,
+        )
         kwargs = {**env_kwargs(self.images, config), "render_backend": "cpu" if self._render_mode == "cpu" else "gpu"}
         self._env = gym.make(task["env_id"], **kwargs)
         self._env_key = key
@@ -300,9 +350,11 @@ class RoboLabBenchmark(StepBenchmark):
             raise RoboLabError(f"the model server's reply has no 'actions' (it holds {keys})")
         values = np.asarray(values, dtype=np.float32)
         if values.ndim == 2 and values.shape[0] > 1:
-            raise RoboLabError(f"the model server sent {values.shape[0]} actions at once; RoboLab executes one per "
-                               "step: give the model server a chunk_size (PredictModelServer(chunk_size=N)) so that "
-                               "vla-eval hands out its chunks one action at a time")  # fmt: skip
+            raise RoboLabError(
+                f"the model server sent {values.shape[0]} actions at once; RoboLab executes one per "
+                "step: give the model server a chunk_size (PredictModelServer(chunk_size=N)) so that "
+                "vla-eval hands out its chunks one action at a time"
+            )
         return values.reshape(-1) if values.ndim == 2 else values
 
     def _frame(self, observation: Any) -> np.ndarray | None:

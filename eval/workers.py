@@ -114,5 +114,7 @@ def raise_fatal(message: tuple, where: str, out_dir: Path) -> None:
         raise PolicyUnavailableError(text)
     if robolab_error:
         raise RoboLabError(text)
-    raise RoboLabError(f"{where} stopped with {kind}: {text} (traceback above). Finished episodes are kept in "
-                       f"{out_dir}; rerun the same command to resume")  # fmt: skip
+    raise RoboLabError(
+        f"{where} stopped with {kind}: {text} (traceback above). Finished episodes are kept in "
+        f"{out_dir}; rerun the same command to resume"
+    )

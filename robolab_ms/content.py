@@ -71,12 +71,15 @@ def check_content_root(folder: str | Path, origin: str) -> Path:
     """A user content folder, checked: it must exist and hold task_specs/, scene_builders/ or assets/catalog.yaml."""
     path = Path(folder).expanduser()
     if not path.is_dir():
-        raise RoboLabError(f"{origin}: '{folder}' is not a folder. Name a folder that holds task_specs/ and/or "
-                           "scene_builders/")  # fmt: skip
+        raise RoboLabError(
+            f"{origin}: '{folder}' is not a folder. Name a folder that holds task_specs/ and/or scene_builders/"
+        )
     if not any((path / CONTENT_FOLDERS[kind]).is_dir() for kind in USER_KINDS) and not (path / USER_CATALOG).is_file():
-        raise RoboLabError(f"{origin}: '{folder}' holds neither task_specs/ nor scene_builders/ nor {USER_CATALOG}. "
-                           f"Put task files in {path / 'task_specs'}, scene files in {path / 'scene_builders'}, "
-                           "catalog objects with 'robolab catalog add'")  # fmt: skip
+        raise RoboLabError(
+            f"{origin}: '{folder}' holds neither task_specs/ nor scene_builders/ nor {USER_CATALOG}. "
+            f"Put task files in {path / 'task_specs'}, scene files in {path / 'scene_builders'}, "
+            "catalog objects with 'robolab catalog add'"
+        )
     return path.resolve()
 
 
@@ -137,8 +140,12 @@ def load_yaml(path: Path) -> dict[str, Any]:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as error:
         line = raw.count(b"\n", 0, error.start) + 1
-        raise SpecError(path, f"line {line}", f"is not UTF-8 text (byte 0x{raw[error.start]:02x} at offset "
-                        f"{error.start})", "Save the file with the UTF-8 encoding") from None  # fmt: skip
+        raise SpecError(
+            path,
+            f"line {line}",
+            f"is not UTF-8 text (byte 0x{raw[error.start]:02x} at offset {error.start})",
+            "Save the file with the UTF-8 encoding",
+        ) from None
     loader = YAML_LOADER(text)
     try:
         node = loader.get_single_node()
@@ -180,8 +187,12 @@ def _refuse_repeated_keys(root: yaml.Node, file: Path) -> None:
                 field = f"{where}.{text}" if where else text
                 line = key.start_mark.line + 1
                 if isinstance(key, yaml.ScalarNode) and (key.tag, key.value) in first_line:
-                    raise SpecError(file, field, f"is given twice (lines {first_line[key.tag, key.value]} and "
-                                    f"{line})", "Keep one of them")  # fmt: skip
+                    raise SpecError(
+                        file,
+                        field,
+                        f"is given twice (lines {first_line[key.tag, key.value]} and {line})",
+                        "Keep one of them",
+                    )
                 if isinstance(key, yaml.ScalarNode):
                     first_line[key.tag, key.value] = line
                 stack.append((value, field))
@@ -214,8 +225,9 @@ class Fields:
             return default
         return check_kind(self.data[name], kind, lambda problem, fix: self.error(name, problem, fix))
 
-    def number(self, name: str, low: float, high: float, default: Any = REQUIRED, *, above: bool = False,
-               unit: str = "") -> float:
+    def number(
+        self, name: str, low: float, high: float, default: Any = REQUIRED, *, above: bool = False, unit: str = ""
+    ) -> float:
         """A finite number in [low, high] (in (low, high] when `above`); `default` when absent."""
         if not self.has(name):
             return self.get(name, float, default)
@@ -227,8 +239,16 @@ class Fields:
         """A finite number above 0 and at most `high`."""
         return self.number(name, 0.0, high, default, above=True, unit=unit)
 
-    def number_list(self, name: str, length: int, default: Any = REQUIRED, low: float = -math.inf,
-                    high: float = math.inf, above: bool = False, unit: str = "") -> list[float]:
+    def number_list(
+        self,
+        name: str,
+        length: int,
+        default: Any = REQUIRED,
+        low: float = -math.inf,
+        high: float = math.inf,
+        above: bool = False,
+        unit: str = "",
+    ) -> list[float]:
         """A list of `length` finite numbers, each in [low, high] (in (low, high] when `above`)."""
         if not self.has(name):
             return self.get(name, list, default)
@@ -237,6 +257,7 @@ class Fields:
             raise self.error(name, f"must be a list of {length} numbers, got {value!r}")
         numbers = []
         for index, item in enumerate(value):
+
             def make_error(problem: str, fix: str, index: int = index) -> SpecError:
                 return self.error(f"{name}[{index}]", problem, fix)
 
@@ -268,6 +289,7 @@ class Fields:
         values = self.get(name, list)
         known = list(known)
         for index, value in enumerate(values):
+
             def make_error(problem: str, fix: str, index: int = index) -> SpecError:
                 return self.error(f"{name}[{index}]", problem, fix)
 
@@ -284,8 +306,7 @@ class Fields:
                 raise self.error(str(key), "is not a known field", did_you_mean(str(key), allowed))
 
 
-KIND_NAMES = {float: "number", int: "whole number", str: "text", bool: "true or false", list: "list",
-              dict: "mapping"}
+KIND_NAMES = {float: "number", int: "whole number", str: "text", bool: "true or false", list: "list", dict: "mapping"}
 
 
 def check_kind(value: Any, kind: type[T] | tuple[type, ...], make_error: Callable[[str, str], Exception]) -> T:
@@ -316,8 +337,9 @@ def _reads_as_number(text: str) -> bool:
         return False
 
 
-def check_range(value: float, low: float, high: float, above: bool, unit: str,
-                make_error: Callable[[str, str], Exception]) -> None:
+def check_range(
+    value: float, low: float, high: float, above: bool, unit: str, make_error: Callable[[str, str], Exception]
+) -> None:
     """`value` must be in [low, high], or in (low, high] when `above`."""
     unit = f" {unit}" if unit else ""
     if above:

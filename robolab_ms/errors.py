@@ -63,8 +63,9 @@ def make_folder(path: str | Path, option: str = "") -> Path:
         blocking = next((p for p in [path, *path.parents] if p.exists() and not p.is_dir()), path)
         raise RoboLabError(f"{where}: cannot create this folder: {blocking} is a file; choose another folder") from None
     except OSError as error:
-        raise RoboLabError(f"{where}: cannot create this folder ({error.strerror or error}); choose a folder you can "
-                           "write to") from None  # fmt: skip
+        raise RoboLabError(
+            f"{where}: cannot create this folder ({error.strerror or error}); choose a folder you can write to"
+        ) from None
     if not os.access(path, os.W_OK | os.X_OK):
         raise RoboLabError(f"{where}: this folder is not writable; choose a folder you can write to")
     return path

@@ -78,28 +78,40 @@ class FidelityReport:
 
     @property
     def passed(self) -> bool:
-        return (self.textured_share >= TEXTURED_TARGET and self.void_share <= VOID_TARGET and self.shadows_on
-                and not self.errors)  # fmt: skip
+        return (
+            self.textured_share >= TEXTURED_TARGET
+            and self.void_share <= VOID_TARGET
+            and self.shadows_on
+            and not self.errors
+        )
 
     def text(self) -> str:
         """The report as printed by `robolab render-check`."""
         lines = [f"{'scene':34} {'background':11} {'textured objects':>17} {'void px':>8} {'shadows':>8}"]
         for s in self.scenes:
-            lines.append(f"{s.scene:34} {s.background:11} {s.textured:>8}/{s.objects:<8} "
-                         f"{100 * s.void_pixels / max(s.pixels, 1):>7.2f}% {'on' if s.shadows else 'off':>8}")  # fmt: skip
+            lines.append(
+                f"{s.scene:34} {s.background:11} {s.textured:>8}/{s.objects:<8} "
+                f"{100 * s.void_pixels / max(s.pixels, 1):>7.2f}% {'on' if s.shadows else 'off':>8}"
+            )
         objects = sum(s.objects for s in self.scenes)
         textured = sum(s.textured for s in self.scenes)
         lines.append("")
-        lines.append(f"objects with an image texture: {textured}/{objects} = {100 * self.textured_share:.1f} % "
-                     f"(target >= {100 * TEXTURED_TARGET:.0f} %)")  # fmt: skip
-        lines.append(f"external-camera pixels showing the grid ground or empty background: "
-                     f"{100 * self.void_share:.2f} % (target {100 * VOID_TARGET:.0f} %), "
-                     f"{len(self.scenes)} scenes x {len(EXTERNAL_CAMERAS)} cameras at {self.width}x{self.height}")  # fmt: skip
+        lines.append(
+            f"objects with an image texture: {textured}/{objects} = {100 * self.textured_share:.1f} % "
+            f"(target >= {100 * TEXTURED_TARGET:.0f} %)"
+        )
+        lines.append(
+            f"external-camera pixels showing the grid ground or empty background: "
+            f"{100 * self.void_share:.2f} % (target {100 * VOID_TARGET:.0f} %), "
+            f"{len(self.scenes)} scenes x {len(EXTERNAL_CAMERAS)} cameras at {self.width}x{self.height}"
+        )
         shares = ", ".join(f"{region} {100 * share:.1f} %" for region, share in self.region_shares().items())
         lines.append(f"what the external cameras see: {shares}")
         sizes = sorted({s.shadow_map_size for s in self.scenes if s.shadows})
-        lines.append(f"shadows: {'on' if self.shadows_on else 'OFF in some scenes'}"
-                     + (f" (key light, shadow map {', '.join(map(str, sizes))} px)" if sizes else ""))  # fmt: skip
+        lines.append(
+            f"shadows: {'on' if self.shadows_on else 'OFF in some scenes'}"
+            + (f" (key light, shadow map {', '.join(map(str, sizes))} px)" if sizes else "")
+        )
         untextured = sorted({name for s in self.scenes for name in s.untextured_names})
         if untextured:
             lines.append(f"untextured objects: {', '.join(untextured)}")
@@ -132,8 +144,14 @@ def _fidelity_env_class():
             self.scene_spec = scene_spec
             self.size = (width, height)
             self.binding = robot_binding("droid")
-            super().__init__(robot_uids="droid", control_mode="pd_joint_pos", obs_mode="rgb+segmentation",
-                             reward_mode="none", render_backend="cpu", **kwargs)  # fmt: skip
+            super().__init__(
+                robot_uids="droid",
+                control_mode="pd_joint_pos",
+                obs_mode="rgb+segmentation",
+                reward_mode="none",
+                render_backend="cpu",
+                **kwargs,
+            )
 
         @property
         def _default_sim_config(self):
@@ -142,8 +160,9 @@ def _fidelity_env_class():
         @property
         def _default_sensor_configs(self):
             mount = self.agent.robot.links_map[self.binding.wrist_mount_link]
-            return cameras.policy_camera_configs((*EXTERNAL_CAMERAS, "wrist"), *self.size, mount,
-                                                 cameras.wrist_pose(self.binding))  # fmt: skip
+            return cameras.policy_camera_configs(
+                (*EXTERNAL_CAMERAS, "wrist"), *self.size, mount, cameras.wrist_pose(self.binding)
+            )
 
         def _load_scene(self, options):
             self.scene_builder = RoboLabSceneBuilder(self, self.scene_spec, load_catalog())
@@ -201,23 +220,37 @@ def measure_scene(env, scene_spec) -> SceneFidelity:
             regions[region] = regions.get(region, 0) + count
             if region in ("empty background", "grid ground"):
                 void += count
-    lights = [light for light in env.scene.sub_scenes[0].render_system.lights
-              if isinstance(light, sapien.render.RenderDirectionalLightComponent | sapien.render.RenderSpotLightComponent
-                            | sapien.render.RenderPointLightComponent)]  # fmt: skip
+    lights = [
+        light
+        for light in env.scene.sub_scenes[0].render_system.lights
+        if isinstance(
+            light,
+            sapien.render.RenderDirectionalLightComponent
+            | sapien.render.RenderSpotLightComponent
+            | sapien.render.RenderPointLightComponent,
+        )
+    ]
     shadow_sizes = [light.shadow_map_size for light in lights if light.shadow]
     return SceneFidelity(
-        scene=scene_spec.name, background=builder.background.name, objects=len(builder.objects),
-        textured=len(builder.objects) - len(untextured), untextured_names=untextured, pixels=pixels, void_pixels=void,
-        regions=regions, shadows=bool(shadow_sizes), shadow_map_size=max(shadow_sizes, default=0),
-    )  # fmt: skip
+        scene=scene_spec.name,
+        background=builder.background.name,
+        objects=len(builder.objects),
+        textured=len(builder.objects) - len(untextured),
+        untextured_names=untextured,
+        pixels=pixels,
+        void_pixels=void,
+        regions=regions,
+        shadows=bool(shadow_sizes),
+        shadow_map_size=max(shadow_sizes, default=0),
+    )
 
 
-def fidelity_report(scenes: Sequence[str] | None = None, width: int = 160, height: int = 90,
-                    progress: bool = False) -> FidelityReport:
+def fidelity_report(
+    scenes: Sequence[str] | None = None, width: int = 160, height: int = 90, progress: bool = False
+) -> FidelityReport:
     """Measure every scene (or the named ones) at width x height."""
-    from robolab_ms.scene import load_scene, scene_names
-
     from robolab_ms.errors import RoboLabError
+    from robolab_ms.scene import load_scene, scene_names
 
     if width < 1 or height < 1:
         raise RoboLabError(f"--width {width} --height {height}: give a camera size of at least 1 x 1 pixels")
@@ -263,8 +296,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m robolab_ms.fidelity", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)  # fmt: skip
+    parser = argparse.ArgumentParser(
+        prog="python -m robolab_ms.fidelity", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     add_arguments(parser)
     return run(parser.parse_args(argv))
 

@@ -35,9 +35,14 @@ def old_look():
     """Patch the builder and the environment back to the pre-issue-18 look while the block runs."""
     from mani_skill.utils.building.ground import build_ground
 
-    saved = (RoboLabSceneBuilder._build_floor, RoboLabSceneBuilder._build_backdrop,
-             RoboLabSceneBuilder._table_render_material, RoboLabEnv._load_lighting, catalog_schema.render_material,
-             RoboLabSceneBuilder.build)  # fmt: skip
+    saved = (
+        RoboLabSceneBuilder._build_floor,
+        RoboLabSceneBuilder._build_backdrop,
+        RoboLabSceneBuilder._table_render_material,
+        RoboLabEnv._load_lighting,
+        catalog_schema.render_material,
+        RoboLabSceneBuilder.build,
+    )
     original_build = RoboLabSceneBuilder.build
 
     def build(self, build_config_idxs=None):
@@ -48,16 +53,22 @@ def old_look():
     RoboLabSceneBuilder._build_floor = lambda self: build_ground(self.scene, altitude=-TABLE_HEIGHT)
     RoboLabSceneBuilder._build_backdrop = lambda self: None
     RoboLabSceneBuilder._table_render_material = lambda self: flat(
-        Look("plastic", tuple(self.spec.table_rgba[:3]), 0.8))
+        Look("plastic", tuple(self.spec.table_rgba[:3]), 0.8)
+    )
     RoboLabSceneBuilder.build = build
     RoboLabEnv._load_lighting = BaseEnv._load_lighting
     catalog_schema.render_material = flat
     try:
         yield
     finally:
-        (RoboLabSceneBuilder._build_floor, RoboLabSceneBuilder._build_backdrop,
-         RoboLabSceneBuilder._table_render_material, RoboLabEnv._load_lighting, catalog_schema.render_material,
-         RoboLabSceneBuilder.build) = saved  # fmt: skip
+        (
+            RoboLabSceneBuilder._build_floor,
+            RoboLabSceneBuilder._build_backdrop,
+            RoboLabSceneBuilder._table_render_material,
+            RoboLabEnv._load_lighting,
+            catalog_schema.render_material,
+            RoboLabSceneBuilder.build,
+        ) = saved
 
 
 def render(task: str, out: Path, tag: str, width: int, height: int) -> None:

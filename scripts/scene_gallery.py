@@ -42,8 +42,14 @@ def render_scene(scene: str, folder: Path) -> Image.Image:
     name = "Gallery" + "".join(part.title() for part in scene.split("_"))
     path = folder / f"{name}.yaml"
     path.write_text(PROBE_TASK.format(name=name, scene=scene, obj=spec.objects[0].name))
-    env = gym.make(register_task_file(path, replace=True), task=str(path), obs_mode="rgb", cameras=("external_left",),
-                   camera_width=WIDTH, camera_height=HEIGHT)  # fmt: skip
+    env = gym.make(
+        register_task_file(path, replace=True),
+        task=str(path),
+        obs_mode="rgb",
+        cameras=("external_left",),
+        camera_width=WIDTH,
+        camera_height=HEIGHT,
+    )
     try:
         obs, _ = env.reset(seed=0)
         rgb = obs["sensor_data"]["external_left"]["rgb"][0].cpu().numpy().astype(np.uint8)
@@ -75,8 +81,9 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default="docs/images/scenes", help="output folder (default docs/images/scenes)")
-    parser.add_argument("--scenes", nargs="+", help="only these scenes (the contact sheet still shows every image "
-                        "in the output folder)")  # fmt: skip
+    parser.add_argument(
+        "--scenes", nargs="+", help="only these scenes (the contact sheet still shows every image in the output folder)"
+    )
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -85,8 +92,9 @@ def main(argv: list[str] | None = None) -> int:
             image = render_scene(scene, Path(folder))
             save(image, out / f"{scene}.png")
             print(f"{scene}: {out / f'{scene}.png'}")
-    images = {path.stem: Image.open(path).convert("RGB") for path in sorted(out.glob("*.png"))
-              if path.stem != "contact_sheet"}  # fmt: skip
+    images = {
+        path.stem: Image.open(path).convert("RGB") for path in sorted(out.glob("*.png")) if path.stem != "contact_sheet"
+    }
     save(contact_sheet(images), out / "contact_sheet.png", colors=32)
     print(f"contact sheet: {out / 'contact_sheet.png'} ({len(images)} scenes)")
     return 0

@@ -51,14 +51,24 @@ def grid(task: str) -> Image.Image:
     """The full-colour grid for `task`."""
     import mani_skill.envs  # noqa: F401  (registers the RoboLab environments)
 
-    env = gym.make(f"RoboLab-{task}-v1", obs_mode="rgb", render_backend="cpu", cameras=["external_left"],
-                   camera_width=RENDER[0], camera_height=RENDER[1])  # fmt: skip
+    env = gym.make(
+        f"RoboLab-{task}-v1",
+        obs_mode="rgb",
+        render_backend="cpu",
+        cameras=["external_left"],
+        camera_width=RENDER[0],
+        camera_height=RENDER[1],
+    )
     columns = 1 + max(len(cells) for _, cells in ROWS)
     header = 18
     sheet = Image.new("RGB", (columns * TILE[0], header + len(ROWS) * (TILE[1] + LABEL)), (255, 255, 255))
     draw = ImageDraw.Draw(sheet)
-    draw.text((4, 3), f"{task}, external-left camera: the scene as its file says (first column), then each "
-              "axis at the ends of its range", fill=(0, 0, 0))  # fmt: skip
+    draw.text(
+        (4, 3),
+        f"{task}, external-left camera: the scene as its file says (first column), then each "
+        "axis at the ends of its range",
+        fill=(0, 0, 0),
+    )
     plain = render(env, None, 0)
     for row, (axis, cells) in enumerate(ROWS):
         top = header + row * (TILE[1] + LABEL)

@@ -46,22 +46,32 @@ class HeadlessChromium:
         self.profile = Path(tempfile.mkdtemp(prefix="chromium-profile-"))
         self.log = tempfile.TemporaryFile()  # Chromium's messages: a pipe could fill up and stall it
         self.process = subprocess.Popen(
-            [executable, *CHROMIUM_FLAGS, f"--user-data-dir={self.profile}", "--remote-debugging-port=0",
-             f"--window-size={width},{height}", "about:blank"],
-            stdout=subprocess.DEVNULL, stderr=self.log, start_new_session=True,  # its helpers share its group
-        )  # fmt: skip
+            [
+                executable,
+                *CHROMIUM_FLAGS,
+                f"--user-data-dir={self.profile}",
+                "--remote-debugging-port=0",
+                f"--window-size={width},{height}",
+                "about:blank",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=self.log,
+            start_new_session=True,  # its helpers share its group
+        )
         self.events: list[dict] = []
         self._stack = ExitStack()
         self._next_id = 0
         try:
             port = self._debugging_port()
             page = self._page_target(port)
-            self.socket = self._stack.enter_context(connect(page["webSocketDebuggerUrl"], max_size=None,
-                                                            open_timeout=REPLY_SECONDS))  # fmt: skip
+            self.socket = self._stack.enter_context(
+                connect(page["webSocketDebuggerUrl"], max_size=None, open_timeout=REPLY_SECONDS)
+            )
             self.call("Page.enable")
             self.call("Runtime.enable")
-            self.call("Emulation.setDeviceMetricsOverride", width=width, height=height, deviceScaleFactor=1,
-                      mobile=False)  # fmt: skip
+            self.call(
+                "Emulation.setDeviceMetricsOverride", width=width, height=height, deviceScaleFactor=1, mobile=False
+            )
         except BaseException:
             self.close()
             raise
@@ -73,8 +83,10 @@ class HeadlessChromium:
         while time.monotonic() < deadline:
             if self.process.poll() is not None:
                 self.log.seek(0)
-                raise RuntimeError(f"chromium exited with {self.process.returncode}: "
-                                   f"{self.log.read().decode(errors='replace')[-2000:]}")  # fmt: skip
+                raise RuntimeError(
+                    f"chromium exited with {self.process.returncode}: "
+                    f"{self.log.read().decode(errors='replace')[-2000:]}"
+                )
             if marker.exists():
                 lines = marker.read_text().splitlines()
                 if lines and lines[0].isdigit():
@@ -130,9 +142,11 @@ class HeadlessChromium:
 
     def click(self, selector: str) -> None:
         """Click the centre of the first element matching a CSS selector with mouse events, as a user would."""
-        box = self.evaluate(f"(() => {{ const e = document.querySelector({json.dumps(selector)}); "
-                            "e.scrollIntoView({block: 'center'}); const r = e.getBoundingClientRect(); "
-                            "return [r.left + r.width / 2, r.top + r.height / 2]; })()")  # fmt: skip
+        box = self.evaluate(
+            f"(() => {{ const e = document.querySelector({json.dumps(selector)}); "
+            "e.scrollIntoView({block: 'center'}); const r = e.getBoundingClientRect(); "
+            "return [r.left + r.width / 2, r.top + r.height / 2]; })()"
+        )
         x, y = box
         self.call("Input.dispatchMouseEvent", type="mouseMoved", x=x, y=y)
         self.call("Input.dispatchMouseEvent", type="mousePressed", x=x, y=y, button="left", clickCount=1)

@@ -51,8 +51,16 @@ def chunk_for(fault: str, step: int = 0) -> np.ndarray | None:
 
 
 def describe(request: dict) -> dict:
-    return {str(k): ([list(v.shape), str(v.dtype)] if isinstance(v, np.ndarray) else v if isinstance(v, (str, int, float))
-                     else type(v).__name__) for k, v in request.items()}  # fmt: skip
+    return {
+        str(k): (
+            [list(v.shape), str(v.dtype)]
+            if isinstance(v, np.ndarray)
+            else v
+            if isinstance(v, (str, int, float))
+            else type(v).__name__
+        )
+        for k, v in request.items()
+    }
 
 
 def main() -> None:
@@ -96,7 +104,9 @@ def serve_openpi(port: int, fault_of, log, delay: float) -> None:
             chunk = await asyncio.to_thread(chunk_for, fault, int(request.get("robolab/step", 0)))
             await asyncio.sleep(max(0.0, delay - (time.perf_counter() - arrived)))
             try:
-                await connection.send(msgpack_numpy.packb({"wrong": chunk} if fault == "missing" else {"actions": chunk}))
+                await connection.send(
+                    msgpack_numpy.packb({"wrong": chunk} if fault == "missing" else {"actions": chunk})
+                )
             except websockets.ConnectionClosed:
                 return
 

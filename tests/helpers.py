@@ -7,9 +7,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import psutil
-
 import numpy as np
+import psutil
 import torch
 
 FIXTURES = Path(__file__).parent / "fixtures"

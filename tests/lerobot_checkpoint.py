@@ -34,12 +34,17 @@ def main() -> None:
     config = make_policy_config(args.policy_type, device="cpu", **settings)
     height, width = (int(part) for part in args.image_size.split(","))
     image = PolicyFeature(type=FeatureType.VISUAL, shape=(3, height, width))
-    config.input_features = {"observation.images.exterior_1_left": image, "observation.images.wrist_left": image,
-                             "observation.state": PolicyFeature(type=FeatureType.STATE, shape=(8,))}  # fmt: skip
+    config.input_features = {
+        "observation.images.exterior_1_left": image,
+        "observation.images.wrist_left": image,
+        "observation.state": PolicyFeature(type=FeatureType.STATE, shape=(8,)),
+    }
     config.output_features = {"action": PolicyFeature(type=FeatureType.ACTION, shape=(8,))}
     policy = get_policy_class(config.type)(config=config)
-    stats = {name: {stat: np.asarray(values, np.float32) for stat, values in entry.items()}
-             for name, entry in json.loads(Path(args.stats).read_text()).items()}  # fmt: skip
+    stats = {
+        name: {stat: np.asarray(values, np.float32) for stat, values in entry.items()}
+        for name, entry in json.loads(Path(args.stats).read_text()).items()
+    }
     preprocessor, postprocessor = make_pre_post_processors(config, dataset_stats=stats)
     for part in (policy, preprocessor, postprocessor):
         part.save_pretrained(args.out)

@@ -48,17 +48,29 @@ def make_handler(answers: list, log_path: Path, json_mode: bool) -> type[BaseHTT
             except json.JSONDecodeError:
                 self._send(400, {"error": {"message": "body is not JSON", "type": "invalid_request_error"}})
                 return
-            entry = {"path": self.path, "model": body.get("model"), "messages": body.get("messages"),
-                     "response_format": body.get("response_format"),
-                     "bearer": self.headers.get("Authorization", "").startswith("Bearer ")}  # fmt: skip
+            entry = {
+                "path": self.path,
+                "model": body.get("model"),
+                "messages": body.get("messages"),
+                "response_format": body.get("response_format"),
+                "bearer": self.headers.get("Authorization", "").startswith("Bearer "),
+            }
             with log_path.open("a", encoding="utf-8") as log:
                 log.write(json.dumps(entry) + "\n")
             if not self.path.rstrip("/").endswith("/chat/completions"):
                 self._send(404, {"error": {"message": f"no route {self.path}", "type": "not_found"}})
                 return
             if body.get("response_format") and not json_mode:
-                self._send(400, {"error": {"message": "response_format is not supported", "type": "invalid_request_error",
-                                           "param": "response_format"}})  # fmt: skip
+                self._send(
+                    400,
+                    {
+                        "error": {
+                            "message": "response_format is not supported",
+                            "type": "invalid_request_error",
+                            "param": "response_format",
+                        }
+                    },
+                )
                 return
             if state["next"] >= len(answers):
                 self._send(503, {"error": {"message": "no scripted answers left", "type": "server_error"}})
@@ -66,11 +78,19 @@ def make_handler(answers: list, log_path: Path, json_mode: bool) -> type[BaseHTT
             answer = answers[state["next"]]
             state["next"] += 1
             content = answer if isinstance(answer, str) else json.dumps(answer)
-            self._send(200, {"id": f"chatcmpl-{state['next']}", "object": "chat.completion", "created": int(time.time()),
-                             "model": body.get("model") or "scripted",
-                             "choices": [{"index": 0, "finish_reason": "stop",
-                                          "message": {"role": "assistant", "content": content}}],
-                             "usage": {"prompt_tokens": 0, "completion_tokens": 0, "total_tokens": 0}})  # fmt: skip
+            self._send(
+                200,
+                {
+                    "id": f"chatcmpl-{state['next']}",
+                    "object": "chat.completion",
+                    "created": int(time.time()),
+                    "model": body.get("model") or "scripted",
+                    "choices": [
+                        {"index": 0, "finish_reason": "stop", "message": {"role": "assistant", "content": content}}
+                    ],
+                    "usage": {"prompt_tokens": 0, "completion_tokens": 0, "total_tokens": 0},
+                },
+            )
 
     return Handler
 
@@ -104,8 +124,16 @@ class LLMServer:
         self.log.write_text("", encoding="utf-8")
         self.port = free_port()
         self.base_url = f"http://127.0.0.1:{self.port}/v1"
-        args = [sys.executable, str(Path(__file__)), "--port", str(self.port), "--answers", str(self.answers_file),
-                "--log", str(self.log)] + ([] if json_mode else ["--no-json-mode"])  # fmt: skip
+        args = [
+            sys.executable,
+            str(Path(__file__)),
+            "--port",
+            str(self.port),
+            "--answers",
+            str(self.answers_file),
+            "--log",
+            str(self.log),
+        ] + ([] if json_mode else ["--no-json-mode"])
         self.process = ServerProcess(args, ready="ready", timeout=30)
 
     def requests(self) -> list[dict]:

@@ -25,8 +25,9 @@ class ServerProcess:
 
     def __init__(self, args: list[str], ready: str, timeout: float = 120.0, env: dict[str, str] | None = None) -> None:
         self.args, self.lines = args, []
-        self.process = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                        start_new_session=True, env=env)  # fmt: skip
+        self.process = subprocess.Popen(
+            args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True, env=env
+        )
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             line = self.process.stdout.readline()
@@ -71,5 +72,20 @@ def robolab_serve(*args: str) -> ServerProcess:
 def fault_server(protocol: str, port: int, faults: dict[int, str], log: Path, delay: float = 0.0) -> ServerProcess:
     import json
 
-    return ServerProcess([sys.executable, str(TESTS / "fault_server.py"), "--protocol", protocol, "--port", str(port),
-                          "--faults", json.dumps(faults), "--log", str(log), "--delay", str(delay)], ready="ready")  # fmt: skip
+    return ServerProcess(
+        [
+            sys.executable,
+            str(TESTS / "fault_server.py"),
+            "--protocol",
+            protocol,
+            "--port",
+            str(port),
+            "--faults",
+            json.dumps(faults),
+            "--log",
+            str(log),
+            "--delay",
+            str(delay),
+        ],
+        ready="ready",
+    )

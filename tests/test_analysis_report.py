@@ -95,21 +95,57 @@ def test_filters_keep_what_they_say_and_refuse_unknown_fields(runs):
 def test_cli_prints_tables_and_writes_csv_parquet_and_plots(runs, tmp_path, capsys):
     folder, _ = runs
     out = tmp_path / "report"
-    code = main(["analyze", str(folder / "known"), str(folder / "flat"), "--where", "light_intensity>0.1",
-                 "--by", "task,light_color", "--compare", "known", "flat", "--resamples", "500", "--out", str(out)])
+    code = main(
+        [
+            "analyze",
+            str(folder / "known"),
+            str(folder / "flat"),
+            "--where",
+            "light_intensity>0.1",
+            "--by",
+            "task,light_color",
+            "--compare",
+            "known",
+            "flat",
+            "--resamples",
+            "500",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     printed = capsys.readouterr().out
-    assert "## By task" in printed and "## By light_color" in printed and "## Paired comparison: known vs flat" in printed
-    for name in ("overall", "by_task", "by_axis", "by_attribute", "by_difficulty", "by_scene", "by_variant",
-                 "by_num_objects", "by_episode_length", "by_wrong_objects", "by_light_intensity", "paired_tasks"):
+    assert (
+        "## By task" in printed and "## By light_color" in printed and "## Paired comparison: known vs flat" in printed
+    )
+    for name in (
+        "overall",
+        "by_task",
+        "by_axis",
+        "by_attribute",
+        "by_difficulty",
+        "by_scene",
+        "by_variant",
+        "by_num_objects",
+        "by_episode_length",
+        "by_wrong_objects",
+        "by_light_intensity",
+        "paired_tasks",
+    ):
         from_csv, from_parquet = pd.read_csv(out / f"{name}.csv"), pd.read_parquet(out / f"{name}.parquet")
         assert len(from_csv) == len(from_parquet) > 0 and ("episodes" in from_csv or "pairs" in from_csv)
     by_task = pd.read_parquet(out / "by_task.parquet")
     assert {"success_ci95_low_%", "score_fail", "ee_sparc", "ee_path_cm", "object_bumped"} <= set(by_task.columns)
     episodes = pd.read_parquet(out / "episodes.parquet")
     assert (episodes["light_intensity"] > 0.1).all()
-    for plot in ("success_by_axis", "success_by_difficulty", "score_vs_complexity", "success_heatmap",
-                 "success_by_parameter", "paired_difference"):
+    for plot in (
+        "success_by_axis",
+        "success_by_difficulty",
+        "score_vs_complexity",
+        "success_heatmap",
+        "success_by_parameter",
+        "paired_difference",
+    ):
         png, svg = (out / "plots" / f"{plot}.png").read_bytes(), (out / "plots" / f"{plot}.svg").read_text()
         assert png.startswith(b"\x89PNG") and len(png) > 5000 and "<svg" in svg
         width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
@@ -151,12 +187,27 @@ def _write_varied_run(folder, policy: str, success: bool) -> None:
     folder.mkdir(parents=True)
     for task, draws in DRAWN.items():
         for seed, drawn in enumerate(draws):
-            append_result(folder, EpisodeResult(
-                task=task, instruction_variant="default", instruction="(test)", robot="droid", policy=policy,
-                seed=seed, success=success, score=1.0 if success else 0.0, progress=1.0 if success else 0.0,
-                steps=120, max_steps=750, success_step=120 if success else None, wall_seconds=1.5,
-                metrics={"ee_sparc": -3.5, "ee_path_length": 0.8}, variations="lighting,objects",
-                variation=dict(drawn)))  # fmt: skip
+            append_result(
+                folder,
+                EpisodeResult(
+                    task=task,
+                    instruction_variant="default",
+                    instruction="(test)",
+                    robot="droid",
+                    policy=policy,
+                    seed=seed,
+                    success=success,
+                    score=1.0 if success else 0.0,
+                    progress=1.0 if success else 0.0,
+                    steps=120,
+                    max_steps=750,
+                    success_step=120 if success else None,
+                    wall_seconds=1.5,
+                    metrics={"ee_sparc": -3.5, "ee_path_length": 0.8},
+                    variations="lighting,objects",
+                    variation=dict(drawn),
+                ),
+            )
 
 
 def test_parameter_drawn_for_one_task_only_is_plotted_from_its_episodes(tmp_path, capsys):
@@ -176,8 +227,13 @@ def test_parameter_drawn_for_one_task_only_is_plotted_from_its_episodes(tmp_path
 def test_paired_comparison_on_files_finds_the_known_difference(tmp_path):
     tasks = list(RATES)
     write_synthetic_run(tmp_path / "a", "a", tasks, 40, {t: 0.9 for t in tasks})
-    write_synthetic_run(tmp_path / "b", "b", tasks, 40, {"BananaInBowl": 0.2, "RubiksCubeLeftOfBowl": 0.9,
-                                                         "BlockStackingSpecifiedOrder": 0.9})  # fmt: skip
+    write_synthetic_run(
+        tmp_path / "b",
+        "b",
+        tasks,
+        40,
+        {"BananaInBowl": 0.2, "RubiksCubeLeftOfBowl": 0.9, "BlockStackingSpecifiedOrder": 0.9},
+    )
     result = compare_policies(load_runs([tmp_path / "a", tmp_path / "b"]).episodes, "a", "b", resamples=500)
     rows = result.per_task.set_index("task")
     assert rows.loc["BananaInBowl", "significant"] and rows.loc["BananaInBowl", "winner"] == "a"
@@ -196,8 +252,9 @@ def test_paired_intervals_cover_the_true_difference():
     for repetition in range(repetitions):
         rate_a = rng.uniform(0.45, 0.95, tasks)
         gap = rng.uniform(0.0, 0.4, tasks)
-        result = compare_policies(paired_episode_frame(rng, rate_a, rate_a - gap, pairs), "a", "b", resamples=1000,
-                                  seed=repetition)  # fmt: skip
+        result = compare_policies(
+            paired_episode_frame(rng, rate_a, rate_a - gap, pairs), "a", "b", resamples=1000, seed=repetition
+        )
         overall_hits += result.overall["ci_low_%"] <= 20.0 <= result.overall["ci_high_%"]
         rows = result.per_task  # sorted by task name = the order drawn
         task_hits += int(((rows["ci_low_%"] <= 100 * gap + 1e-9) & (100 * gap <= rows["ci_high_%"] + 1e-9)).sum())
@@ -207,13 +264,19 @@ def test_paired_intervals_cover_the_true_difference():
 
 def test_mcnemar_finds_a_large_difference_and_rarely_a_null_one():
     rng = np.random.default_rng(7)
-    null = paired_task_table(paired_episode_frame(rng, np.full(400, 0.6), np.full(400, 0.6), 30)
-                             .pivot_table(index=["task", "seed"], columns="policy", values="success")
-                             .rename(columns={"a": "success_a", "b": "success_b"}).reset_index())  # fmt: skip
+    null = paired_task_table(
+        paired_episode_frame(rng, np.full(400, 0.6), np.full(400, 0.6), 30)
+        .pivot_table(index=["task", "seed"], columns="policy", values="success")
+        .rename(columns={"a": "success_a", "b": "success_b"})
+        .reset_index()
+    )
     assert (null["p_mcnemar"] < 0.05).mean() <= 0.06  # exact test: at most its level (here about 0.03)
-    large = paired_task_table(paired_episode_frame(rng, np.full(400, 0.9), np.full(400, 0.3), 30)
-                              .pivot_table(index=["task", "seed"], columns="policy", values="success")
-                              .rename(columns={"a": "success_a", "b": "success_b"}).reset_index())  # fmt: skip
+    large = paired_task_table(
+        paired_episode_frame(rng, np.full(400, 0.9), np.full(400, 0.3), 30)
+        .pivot_table(index=["task", "seed"], columns="policy", values="success")
+        .rename(columns={"a": "success_a", "b": "success_b"})
+        .reset_index()
+    )
     assert (large["p_mcnemar"] < 0.05).mean() >= 0.95
     from scipy.stats import binomtest
 

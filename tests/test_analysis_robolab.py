@@ -21,23 +21,62 @@ from robolab_ms.eval.results import EpisodeResult, append_result
 ROBOLAB_FOLDER = "2026-03-01_10-00-00_pi05"  # RoboLab's <timestamp>_<policy>[_<instruction_type>]
 ISAAC = "pi05@robolab-isaac"
 DT = 1 / 15
-TIMING = {"policy_inference_s": 30.0, "policy_inference_avg_ms": 200.0, "env_step_s": 60.0, "env_step_avg_ms": 400.0,
-          "video_write_s": 1.0, "video_write_avg_ms": 1.3, "wall_total_s": 95.0, "it_per_sec": 1.4}  # fmt: skip
+TIMING = {
+    "policy_inference_s": 30.0,
+    "policy_inference_avg_ms": 200.0,
+    "env_step_s": 60.0,
+    "env_step_avg_ms": 400.0,
+    "video_write_s": 1.0,
+    "video_write_avg_ms": 1.3,
+    "wall_total_s": 95.0,
+    "it_per_sec": 1.4,
+}
 
 
-def robolab_line(task: str, run: int, env_id: int, success: bool, score: float | None, step: int, sparc: float | None,
-                 path: float, events: dict | None = None, **extra) -> dict:  # fmt: skip
+def robolab_line(
+    task: str,
+    run: int,
+    env_id: int,
+    success: bool,
+    score: float | None,
+    step: int,
+    sparc: float | None,
+    path: float,
+    events: dict | None = None,
+    **extra,
+) -> dict:
     """One line of RoboLab's episode_results.jsonl (2 environments per run)."""
     return {
-        "env_name": extra.pop("env_name", f"{task}Task"), "task_name": f"{task}Task", "run_name": f"{task}Task_{run}",
-        "run": run, "episode": run * 2 + env_id, "env_id": env_id, "policy": "pi05",
-        "instruction": f"do {task}", "instruction_type": "default", "attributes": ["semantics"],
-        "success": success, "score": score, "reason": "whatever happened", "episode_step": step,
-        "duration": step * DT, "dt": DT,
-        "metrics": {"ee_sparc": sparc, "joint_sparc_mean": -7.5, "ee_isj": 12.0, "joint_isj": 30.0,
-                    "ee_path_length": path, "ee_speed_max": 0.2, "ee_speed_mean": 0.05, "joint_rmse_mean": 0.02},
-        "events": events or {}, "timing": TIMING, **extra,
-    }  # fmt: skip
+        "env_name": extra.pop("env_name", f"{task}Task"),
+        "task_name": f"{task}Task",
+        "run_name": f"{task}Task_{run}",
+        "run": run,
+        "episode": run * 2 + env_id,
+        "env_id": env_id,
+        "policy": "pi05",
+        "instruction": f"do {task}",
+        "instruction_type": "default",
+        "attributes": ["semantics"],
+        "success": success,
+        "score": score,
+        "reason": "whatever happened",
+        "episode_step": step,
+        "duration": step * DT,
+        "dt": DT,
+        "metrics": {
+            "ee_sparc": sparc,
+            "joint_sparc_mean": -7.5,
+            "ee_isj": 12.0,
+            "joint_isj": 30.0,
+            "ee_path_length": path,
+            "ee_speed_max": 0.2,
+            "ee_speed_mean": 0.05,
+            "joint_rmse_mean": 0.02,
+        },
+        "events": events or {},
+        "timing": TIMING,
+        **extra,
+    }
 
 
 # RoboLab: BananaInBowl 2 of 4, RubiksCubeLeftOfBowl 1 of 2
@@ -68,18 +107,38 @@ def write_our_run(root: Path) -> Path:
     folder = root / "ours"
     folder.mkdir(parents=True)
     for task, seed, success, sparc in OURS:
-        append_result(folder, EpisodeResult(
-            task=task, instruction_variant="default", instruction="x", robot="droid", policy="pi05", seed=seed,
-            success=success, score=1.0 if success else 0.5, progress=1.0 if success else 0.5, steps=90 if success else 450,
-            max_steps=450, success_step=89 if success else None, wall_seconds=5.0,
-            metrics={"ee_sparc": sparc, "ee_path_length": 0.6, "ee_speed_mean": 0.1}))  # fmt: skip
+        append_result(
+            folder,
+            EpisodeResult(
+                task=task,
+                instruction_variant="default",
+                instruction="x",
+                robot="droid",
+                policy="pi05",
+                seed=seed,
+                success=success,
+                score=1.0 if success else 0.5,
+                progress=1.0 if success else 0.5,
+                steps=90 if success else 450,
+                max_steps=450,
+                success_step=89 if success else None,
+                wall_seconds=5.0,
+                metrics={"ee_sparc": sparc, "ee_path_length": 0.6, "ee_speed_mean": 0.1},
+            ),
+        )
     return folder
 
 
 def test_robolab_lines_map_to_our_episode_fields(tmp_path):
     results = {(r.task, r.seed): r for r in read_robolab_folder(write_robolab_run(tmp_path))}
-    assert sorted(results) == [("BananaInBowl", 0), ("BananaInBowl", 1), ("BananaInBowl", 2), ("BananaInBowl", 3),
-                               ("RubiksCubeLeftOfBowl", 0), ("RubiksCubeLeftOfBowl", 1)]  # fmt: skip
+    assert sorted(results) == [
+        ("BananaInBowl", 0),
+        ("BananaInBowl", 1),
+        ("BananaInBowl", 2),
+        ("BananaInBowl", 3),
+        ("RubiksCubeLeftOfBowl", 0),
+        ("RubiksCubeLeftOfBowl", 1),
+    ]
     first = results[("BananaInBowl", 0)]
     assert first.policy == ISAAC and first.simulator == "robolab-isaac" and first.robot == "droid"
     assert first.instruction_variant == "default" and first.instruction == "do BananaInBowl"
@@ -97,9 +156,23 @@ def test_robolab_lines_map_to_our_episode_fields(tmp_path):
 
 
 def test_variation_runs_get_distinct_seeds_a_condition_and_their_parameters(tmp_path):
-    lines = [robolab_line("BananaInBowl", 0, env, env == 0, None, 100, -8.0, 1.0, env_name=f"BananaInBowlTask_{light}",
-                          lighting_color=color, lighting_intensity=100)
-             for light, color in (("RedLight", "red"), ("BlueLight", "blue")) for env in (0, 1)]  # fmt: skip
+    lines = [
+        robolab_line(
+            "BananaInBowl",
+            0,
+            env,
+            env == 0,
+            None,
+            100,
+            -8.0,
+            1.0,
+            env_name=f"BananaInBowlTask_{light}",
+            lighting_color=color,
+            lighting_intensity=100,
+        )
+        for light, color in (("RedLight", "red"), ("BlueLight", "blue"))
+        for env in (0, 1)
+    ]
     lines.append(dict(lines[0], success=False))  # the same episode again: the last line counts
     folder = write_robolab_run(tmp_path, lines, "2026-03-01_10-00-00_pi05_vague")
     for line in lines:
@@ -107,7 +180,11 @@ def test_variation_runs_get_distinct_seeds_a_condition_and_their_parameters(tmp_
     (folder / "episode_results.jsonl").write_text("".join(json.dumps(line) + "\n" for line in lines))
     results = sorted(read_robolab_folder(folder), key=lambda r: r.seed)
     assert [(r.seed, r.condition, r.variation["lighting_color"]) for r in results] == [
-        (0, "BlueLight", "blue"), (1, "BlueLight", "blue"), (2, "RedLight", "red"), (3, "RedLight", "red")]
+        (0, "BlueLight", "blue"),
+        (1, "BlueLight", "blue"),
+        (2, "RedLight", "red"),
+        (3, "RedLight", "red"),
+    ]
     assert {r.instruction_variant for r in results} == {"vague"} and not results[2].success
 
 
@@ -118,8 +195,9 @@ def analyzed(tmp_path_factory) -> tuple[str, Path]:
     robolab_dir, ours, out = write_robolab_run(root), write_our_run(root), root / "analysis"
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        code = robolab(["analyze", str(robolab_dir), str(ours), "--by", "task,simulator", "--out", str(out),
-                        "--no-plots"])  # fmt: skip
+        code = robolab(
+            ["analyze", str(robolab_dir), str(ours), "--by", "task,simulator", "--out", str(out), "--no-plots"]
+        )
     assert code == 0
     return printed.getvalue(), out
 
@@ -146,8 +224,10 @@ def test_analyze_puts_a_robolab_run_beside_ours_with_the_numbers_worked_out_by_h
     assert by_difficulty.loc[(ISAAC, "simple"), "episodes"] == 4
     assert by_difficulty.loc[(ISAAC, "moderate"), "successes"] == 1
     by_simulator = pd.read_csv(out / "by_simulator.csv")
-    assert sorted(zip(by_simulator["policy"], by_simulator["simulator"])) == [("pi05", "robolab_ms"),
-                                                                              (ISAAC, "robolab-isaac")]  # fmt: skip
+    assert sorted(zip(by_simulator["policy"], by_simulator["simulator"])) == [
+        ("pi05", "robolab_ms"),
+        (ISAAC, "robolab-isaac"),
+    ]
     episodes = pd.read_csv(out / "episodes.csv")
     assert sorted(set(episodes["run"])) == [ROBOLAB_FOLDER, "ours"]
 
@@ -175,13 +255,16 @@ def test_robolab120_facts_stand_in_for_a_task_without_a_task_file():
     assert row["episode_seconds"] == 30.0 and row["num_subtasks"] == 3 and row["scene"] == "rubiks_cube_banana_bowl"
 
 
-@pytest.mark.parametrize(("change", "field"), [
-    ({"success": "yes"}, "success"),
-    ({"task_name": None, "env_name": None}, "task_name"),
-    ({"metrics": {"ee_sparc": "smooth"}}, "metrics.ee_sparc"),
-    ({"events": {"OBJECT_BUMPED": -1}}, "events.OBJECT_BUMPED"),
-    ({"episode_step": 1.5}, "episode_step"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"success": "yes"}, "success"),
+        ({"task_name": None, "env_name": None}, "task_name"),
+        ({"metrics": {"ee_sparc": "smooth"}}, "metrics.ee_sparc"),
+        ({"events": {"OBJECT_BUMPED": -1}}, "events.OBJECT_BUMPED"),
+        ({"episode_step": 1.5}, "episode_step"),
+    ],
+)
 def test_a_bad_line_stops_the_command_naming_file_line_and_field(tmp_path, capsys, change, field):
     folder = write_robolab_run(tmp_path, [ROBOLAB_LINES[0], {**ROBOLAB_LINES[1], **change}])
     assert robolab(["analyze", str(folder)]) == 2

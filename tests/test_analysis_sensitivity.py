@@ -36,8 +36,9 @@ def task_info():
 @pytest.fixture(scope="module")
 def small_light_run(tmp_path_factory, task_info):
     """40 episodes whose success depends on the light's intensity: enough to fit, too few to learn much."""
-    out = write_synthetic_run(tmp_path_factory.mktemp("light") / "run", "p", [TASK], 40, light_dependent_success,
-                              params=LIGHT_SPACE)  # fmt: skip
+    out = write_synthetic_run(
+        tmp_path_factory.mktemp("light") / "run", "p", [TASK], 40, light_dependent_success, params=LIGHT_SPACE
+    )
     return load_runs([out], task_info=task_info)
 
 
@@ -46,11 +47,26 @@ def small_light_run(tmp_path_factory, task_info):
 def test_light_intensity_ranks_above_camera_and_colour(tmp_path, capsys, seed):
     """Success depends on light_intensity only (synthetic.light_dependent_success): the command must rank it above
     cam_external_left_dx and light_color, with its posterior moved toward bright light."""
-    run = write_synthetic_run(tmp_path / "run", "p", [TASK], 300, light_dependent_success, seed=seed,
-                              params=LIGHT_SPACE)  # fmt: skip
+    run = write_synthetic_run(
+        tmp_path / "run", "p", [TASK], 300, light_dependent_success, seed=seed, params=LIGHT_SPACE
+    )
     out = tmp_path / "sensitivity"
-    code = robolab(["sensitivity", str(run), "--epochs", "30", "--batch-size", "50", "--samples", "2000",
-                    "--seed", str(seed), "--out", str(out)])  # fmt: skip
+    code = robolab(
+        [
+            "sensitivity",
+            str(run),
+            "--epochs",
+            "30",
+            "--batch-size",
+            "50",
+            "--samples",
+            "2000",
+            "--seed",
+            str(seed),
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     printed = capsys.readouterr().out
     table = pd.read_csv(out / "sensitivity.csv")
@@ -62,8 +78,14 @@ def test_light_intensity_ranks_above_camera_and_colour(tmp_path, capsys, seed):
     # true posterior at success = 1: density 0.05 + 0.9 t on [0, 1], mean 0.65, KS distance to uniform 0.225
     assert light["posterior_mean"] > light["prior_mean"] + 0.05 and light["range_source"] == "manifest"
     assert "| 1 | light_intensity |" in printed and "MNPE" in printed
-    for name in ("sensitivity.md", "posterior_samples.csv", "sensitivity_marginals.png", "sensitivity_marginals.svg",
-                 "sensitivity_pairs.png", "sensitivity_pairs.svg"):  # fmt: skip
+    for name in (
+        "sensitivity.md",
+        "posterior_samples.csv",
+        "sensitivity_marginals.png",
+        "sensitivity_marginals.svg",
+        "sensitivity_pairs.png",
+        "sensitivity_pairs.svg",
+    ):
         assert (out / name).stat().st_size > 0, name
     samples = pd.read_csv(out / "posterior_samples.csv")
     assert len(samples) == 2000 and samples["light_color"].isin(range(6)).all()
@@ -98,13 +120,15 @@ def test_all_categorical_parameters_fit_with_mnpe(small_light_run):
 
 
 def test_camera_distance_of_known_poses():
-    poses = np.array([
-        [0.1, 0.0, 0.0, 0.0, 0.0, 0.0],  # 10 cm along x
-        [0.03, 0.04, 0.0, 0.0, 0.0, 0.0],  # 3-4-5 triangle
-        [0.0, 0.0, 0.0, 0.0, 0.0, 0.2],  # yaw 0.2 rad
-        [0.0, 0.0, 0.0, -0.15, 0.0, 0.0],  # roll -0.15 rad
-        [0.0, 0.0, 0.1, 0.0, 0.0, 0.0],
-    ])  # fmt: skip
+    poses = np.array(
+        [
+            [0.1, 0.0, 0.0, 0.0, 0.0, 0.0],  # 10 cm along x
+            [0.03, 0.04, 0.0, 0.0, 0.0, 0.0],  # 3-4-5 triangle
+            [0.0, 0.0, 0.0, 0.0, 0.0, 0.2],  # yaw 0.2 rad
+            [0.0, 0.0, 0.0, -0.15, 0.0, 0.0],  # roll -0.15 rad
+            [0.0, 0.0, 0.1, 0.0, 0.0, 0.0],
+        ]
+    )
     assert np.allclose(camera_distance(poses), [0.1, 0.05, 0.2, 0.15, 0.1])
     assert np.allclose(camera_distance(poses, beta=2.0), [0.1, 0.05, 0.4, 0.3, 0.1])
     # roll then pitch about perpendicular axes: quaternion w = cos(0.05)^2, one turn of 2 acos(w), not 0.2

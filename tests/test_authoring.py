@@ -104,8 +104,11 @@ def test_content_folders_from_the_variable_and_name_clashes(tmp_path, monkeypatc
     clash = tmp_path / "clash"
     task(clash / "task_specs", "BananaInBowl")
     monkeypatch.setenv(CONTENT_ENV, str(clash))
-    with pytest.raises(RoboLabError, match=r"task 'BananaInBowl' is defined twice: .*task_specs/BananaInBowl.yaml and "
-                       r".*clash/task_specs/BananaInBowl.yaml.*rename one"):
+    with pytest.raises(
+        RoboLabError,
+        match=r"task 'BananaInBowl' is defined twice: .*task_specs/BananaInBowl.yaml and "
+        r".*clash/task_specs/BananaInBowl.yaml.*rename one",
+    ):
         task_names()
     monkeypatch.setenv(CONTENT_ENV, str(tmp_path / "missing"))
     with pytest.raises(RoboLabError, match="ROBOLAB_CONTENT: '.*missing' is not a folder"):
@@ -134,12 +137,29 @@ def test_cli_takes_task_files_and_content_folders(tmp_path):
     assert failed.returncode == 2 and "defined twice" in failed.stderr and "Traceback" not in failed.stderr
 
     out = tmp_path / "run"
-    evaluated = robolab("eval", "--policy", "random", "--task", str(loose), "RoboLab-MyBananaTask-v1", "--content",
-                        str(root), "--episodes", "1", "--max-steps", "3", "--out", str(out), "--quiet")  # fmt: skip
+    evaluated = robolab(
+        "eval",
+        "--policy",
+        "random",
+        "--task",
+        str(loose),
+        "RoboLab-MyBananaTask-v1",
+        "--content",
+        str(root),
+        "--episodes",
+        "1",
+        "--max-steps",
+        "3",
+        "--out",
+        str(out),
+        "--quiet",
+    )
     assert evaluated.returncode == 0, evaluated.stderr
     episodes = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
-    assert [(e["task"], e["steps"], e["error"]) for e in episodes] == [("LooseTask", 3, None),
-                                                                       ("MyBananaTask", 3, None)]
+    assert [(e["task"], e["steps"], e["error"]) for e in episodes] == [
+        ("LooseTask", 3, None),
+        ("MyBananaTask", 3, None),
+    ]
     assert episodes[0]["max_steps"] == 3 and episodes[0]["instruction"] == "Put the banana in the bowl."
 
     missing = robolab("validate", "--task", str(tmp_path / "Nope.yaml"), "--out", str(out))
@@ -148,10 +168,17 @@ def test_cli_takes_task_files_and_content_folders(tmp_path):
 
 def test_content_variable_registers_env_ids_through_the_startup_hook(tmp_path):
     root = content_root(tmp_path / "mine")
-    code = ("import mani_skill.envs, gymnasium as gym; env = gym.make('RoboLab-MyBananaTask-v1', render_backend='cpu');"
-            "print(env.unwrapped.task_spec.file, env.get_wrapper_attr('_max_episode_steps')); env.close()")  # fmt: skip
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600,
-                            env={**os.environ, "PYTHONPATH": str(REPO), CONTENT_ENV: str(root)})  # fmt: skip
+    code = (
+        "import mani_skill.envs, gymnasium as gym; env = gym.make('RoboLab-MyBananaTask-v1', render_backend='cpu');"
+        "print(env.unwrapped.task_spec.file, env.get_wrapper_attr('_max_episode_steps')); env.close()"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "PYTHONPATH": str(REPO), CONTENT_ENV: str(root)},
+    )
     assert result.returncode == 0, result.stderr[-2000:]
     assert result.stdout.split() == [str(root / "task_specs" / "MyBananaTask.yaml"), "60"]
 
@@ -175,8 +202,9 @@ def test_gym_make_with_a_task_file_takes_everything_from_the_file(tmp_path):
         assert info["task"] == "ShortBanana"
     finally:
         env.close()
-    env = gym.make("RoboLab-BananaInBowl-v1", task=str(path), max_episode_steps=5, obs_mode="state_dict",
-                   render_backend="cpu")  # fmt: skip
+    env = gym.make(
+        "RoboLab-BananaInBowl-v1", task=str(path), max_episode_steps=5, obs_mode="state_dict", render_backend="cpu"
+    )
     try:
         assert env.get_wrapper_attr("_max_episode_steps") == 5  # an explicit length still wins
     finally:
@@ -190,8 +218,11 @@ def test_an_object_that_the_jitter_pushes_over_the_table_edge_is_refused(tmp_pat
     ok = write(tmp_path / "edge.yaml", text.replace("[0.55, -0.14]", "[0.55, -0.28]") + "jitter: {xy: 0.005}\n")
     assert read_scene(ok).table_size == (0.9, 0.8)
     bad = write(tmp_path / "edge.yaml", text.replace("[0.55, -0.14]", "[0.55, -0.28]") + "jitter: {xy: 0.02}\n")
-    with pytest.raises(SpecError, match=r"edge.yaml: field 'objects\[1\].xy': 'bowl' reaches 0\.\d cm past the table's "
-                       r"edge at y = -0.400 m at some poses the jitter allows.*Move it at least"):
+    with pytest.raises(
+        SpecError,
+        match=r"edge.yaml: field 'objects\[1\].xy': 'bowl' reaches 0\.\d cm past the table's "
+        r"edge at y = -0.400 m at some poses the jitter allows.*Move it at least",
+    ):
         read_scene(bad)
 
 
@@ -223,29 +254,72 @@ def test_an_install_made_by_make_reads_the_checkouts_content(tmp_path):
     fresh = tmp_path / "venv"
     venv.create(fresh, with_pip=False)
     python = fresh / "bin" / "python"
-    purelib = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                                  capture_output=True, text=True, check=True).stdout.strip())  # fmt: skip
+    purelib = Path(
+        subprocess.run(
+            [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    )
     (purelib / "deps.pth").write_text(site.getsitepackages()[0] + "\n")
     environment = {key: value for key, value in os.environ.items() if key not in ("PYTHONPATH", CONTENT_ENV)}
-    subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--quiet", "--no-deps",
-                    "--no-build-isolation", str(checkout)], check=True, timeout=600, cwd=tmp_path,
-                   env={**environment, CHECKOUT_ENV: "1"})  # fmt: skip
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "--python",
+            str(python),
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            str(checkout),
+        ],
+        check=True,
+        timeout=600,
+        cwd=tmp_path,
+        env={**environment, CHECKOUT_ENV: "1"},
+    )
     assert (purelib / "robolab_ms" / CHECKOUT_FILE).read_text().strip() == str(checkout)
 
     task(checkout / "task_specs", "AddedAfterInstall", seconds=9)
-    listing = subprocess.run([str(fresh / "bin" / "robolab"), "list"], capture_output=True, text=True, cwd=tmp_path,
-                             env=environment, timeout=600)  # fmt: skip
+    listing = subprocess.run(
+        [str(fresh / "bin" / "robolab"), "list"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=environment,
+        timeout=600,
+    )
     assert listing.returncode == 0, listing.stderr
     assert "AddedAfterInstall" in listing.stdout and str(checkout / "task_specs") in listing.stdout
     code = "import mani_skill.envs, gymnasium as gym; print('RoboLab-AddedAfterInstall-v1' in gym.registry)"
-    hooked = subprocess.run([str(python), "-c", code], capture_output=True, text=True, cwd=tmp_path, env=environment,
-                            timeout=600)  # fmt: skip
+    hooked = subprocess.run(
+        [str(python), "-c", code], capture_output=True, text=True, cwd=tmp_path, env=environment, timeout=600
+    )
     assert hooked.stdout.strip() == "True", hooked.stderr[-2000:]
 
     wheels = tmp_path / "wheels"
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation",
-                    "--wheel-dir", str(wheels), str(checkout)], check=True, timeout=600, cwd=tmp_path,
-                   env=environment)  # fmt: skip
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--wheel-dir",
+            str(wheels),
+            str(checkout),
+        ],
+        check=True,
+        timeout=600,
+        cwd=tmp_path,
+        env=environment,
+    )
     import zipfile
 
     (wheel,) = wheels.glob("robolab_ms-*.whl")

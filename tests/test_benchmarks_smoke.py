@@ -35,13 +35,21 @@ def test_benchmarks_are_found():
 @pytest.fixture(scope="module")
 def quick_runs(request, tmp_path_factory):
     """Every selected script started with --quick, AT_ONCE at a time: {script: Future of its CompletedProcess}."""
-    selected = [item.callspec.params["script"] for item in request.session.items
-                if item.module is request.module and hasattr(item, "callspec")]  # fmt: skip
+    selected = [
+        item.callspec.params["script"]
+        for item in request.session.items
+        if item.module is request.module and hasattr(item, "callspec")
+    ]
 
     def run(script: str) -> subprocess.CompletedProcess:
         folder = tmp_path_factory.mktemp(Path(script).stem)
-        return subprocess.run([sys.executable, str(BENCHMARKS / script), "--quick"], cwd=folder, capture_output=True,
-                              text=True, timeout=TIMEOUT_S)  # fmt: skip
+        return subprocess.run(
+            [sys.executable, str(BENCHMARKS / script), "--quick"],
+            cwd=folder,
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+        )
 
     with ThreadPoolExecutor(AT_ONCE) as pool:
         futures: dict[str, Future] = {script: pool.submit(run, script) for script in dict.fromkeys(selected)}

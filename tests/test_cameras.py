@@ -70,9 +70,17 @@ def test_wrist_camera_rides_on_the_gripper_and_sees_the_fingers_below(banana_env
 
 
 def test_right_camera_mirrors_the_left():
-    env = RoboLabEnv(task="BananaInBowl", obs_mode="rgb", render_backend="cpu", render_mode="rgb_array",
-                     cameras=("external_right",), camera_width=640, camera_height=360, video_width=320,
-                     video_height=240)  # fmt: skip
+    env = RoboLabEnv(
+        task="BananaInBowl",
+        obs_mode="rgb",
+        render_backend="cpu",
+        render_mode="rgb_array",
+        cameras=("external_right",),
+        camera_width=640,
+        camera_height=360,
+        video_width=320,
+        video_height=240,
+    )
     obs, _ = env.reset(seed=0)
     try:
         assert tuple(obs["sensor_data"]["external_right"]["rgb"].shape) == (1, 360, 640, 3)
@@ -87,10 +95,13 @@ def test_right_camera_mirrors_the_left():
         env.close()
 
 
-@pytest.mark.parametrize("kwargs, error", [
-    (dict(cameras=("external_left", "top")), UnknownNameError),
-    (dict(camera_width=1920, camera_height=1080), ValueError),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "kwargs, error",
+    [
+        (dict(cameras=("external_left", "top")), UnknownNameError),
+        (dict(camera_width=1920, camera_height=1080), ValueError),
+    ],
+)
 def test_bad_camera_requests_are_refused(kwargs, error):
     with pytest.raises(error):
         gym.make("RoboLab-BananaInBowl-v1", obs_mode="rgb", render_backend="cpu", **kwargs)

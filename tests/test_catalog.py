@@ -110,13 +110,17 @@ def test_shipped_catalog_is_in_built_form(tmp_path):
     [
         ("    collision: {method: packaged_pieces}", r"apple_test.dimensions.*is missing.*robolab catalog build"),
         ("    collision: {method: coacdd}\n    dimensions: [0.1, 0.1, 0.1]", r"collision.method.*Did you mean 'coacd'"),
-        ("    collision: {method: packaged_pieces}\n    dimensions: [0.1, 0.1, 0.1]\n    container: true",
-         r"apple_test.interior.*is missing"),
+        (
+            "    collision: {method: packaged_pieces}\n    dimensions: [0.1, 0.1, 0.1]\n    container: true",
+            r"apple_test.interior.*is missing",
+        ),
     ],
-)  # fmt: skip
+)
 def test_bad_mesh_entries_are_explained(tmp_path, change, match):
     file = tmp_path / "catalog.yaml"
-    file.write_text(MESH_ENTRIES.split("  ketchup_test:")[0].replace("    collision: {method: packaged_pieces}", change))
+    file.write_text(
+        MESH_ENTRIES.split("  ketchup_test:")[0].replace("    collision: {method: packaged_pieces}", change)
+    )
     with pytest.raises(SpecError, match=match):
         read_catalog(file)
 
@@ -145,8 +149,14 @@ def test_check_finds_a_bad_object(tmp_path):
 def test_contact_sheet_is_a_labelled_grid(tmp_path):
     from PIL import Image
 
-    out = contact_sheet(load_catalog(), tmp_path / "sheet.png", ["banana", "ketchup", "toy_duck"], tile=64,
-                        columns=2, progress=lambda line: None)  # fmt: skip
+    out = contact_sheet(
+        load_catalog(),
+        tmp_path / "sheet.png",
+        ["banana", "ketchup", "toy_duck"],
+        tile=64,
+        columns=2,
+        progress=lambda line: None,
+    )
     image = Image.open(out)
     assert image.size == (128, 2 * (64 + 14))
     pixels = np.asarray(image.convert("RGB"))[:64, :64].reshape(-1, 3)

@@ -56,8 +56,9 @@ def test_a_box_in_millimetres_is_refused_then_added_with_its_scale(tmp_path, cap
     assert code == 2 and str(mesh) in err and "too large" in err and "--scale 0.001" in err
     assert not content.exists()  # nothing written
 
-    code, out, err = add(capsys, str(mesh), "--name", "parcel", "--class", "box", "--content", str(content),
-                         "--scale", "0.001")  # fmt: skip
+    code, out, err = add(
+        capsys, str(mesh), "--name", "parcel", "--class", "box", "--content", str(content), "--scale", "0.001"
+    )
     assert code == 0, err
     catalog_file = content / "assets" / "catalog.yaml"
     assert f"added 'parcel' to {catalog_file}" in out and TO_FILL in out
@@ -76,8 +77,21 @@ def test_a_box_in_millimetres_is_refused_then_added_with_its_scale(tmp_path, cap
 def test_a_torus_keeps_its_hole_and_coacd_runs_once_per_mesh(tmp_path, capsys):
     mesh = write_mesh(tmp_path / "ring.stl", torus())
     content = tmp_path / "mine"
-    code, out, err = add(capsys, str(mesh), "--name", "ring", "--class", "toy", "--mass", "0.08", "--colors", "orange",
-                         "--content", str(content), "--no-sheet")  # fmt: skip
+    code, out, err = add(
+        capsys,
+        str(mesh),
+        "--name",
+        "ring",
+        "--class",
+        "toy",
+        "--mass",
+        "0.08",
+        "--colors",
+        "orange",
+        "--content",
+        str(content),
+        "--no-sheet",
+    )
     assert code == 0, err
     assert "coacd: cached" not in out and len(list((tmp_path / "cache" / "coacd").glob("*.npz"))) == 1
     entry = read_catalog(content / "assets" / "catalog.yaml")["ring"]
@@ -86,8 +100,9 @@ def test_a_torus_keeps_its_hole_and_coacd_runs_once_per_mesh(tmp_path, capsys):
     centre = np.array([[0.0, 0.0, entry.recorded_dimensions[2] / 2]])
     assert not any(trimesh.convex.convex_hull(hull).contains(centre)[0] for hull in entry.hulls)  # the hole is free
 
-    code, out, err = add(capsys, str(mesh), "--name", "ring_again", "--class", "toy", "--content", str(content),
-                         "--no-sheet")  # fmt: skip
+    code, out, err = add(
+        capsys, str(mesh), "--name", "ring_again", "--class", "toy", "--content", str(content), "--no-sheet"
+    )
     assert code == 0, err
     assert "coacd: cached" in out and len(list((tmp_path / "cache" / "coacd").glob("*.npz"))) == 1
     again = read_catalog(content / "assets" / "catalog.yaml")["ring_again"]
@@ -109,20 +124,33 @@ def test_a_glb_stands_up_from_gltf_y_up_and_meshes_keep_their_textures(tmp_path,
     assert np.allclose(entry.recorded_dimensions, [0.05, 0.03, 0.12], atol=1e-4)
     assert entry.source["textured"] is True
 
-    code, _, err = add(capsys, str(mesh), "--name", "tower_lying", "--class", "toy", "--up", "z", "--content",
-                       str(content), "--no-sheet")  # fmt: skip
+    code, _, err = add(
+        capsys,
+        str(mesh),
+        "--name",
+        "tower_lying",
+        "--class",
+        "toy",
+        "--up",
+        "z",
+        "--content",
+        str(content),
+        "--no-sheet",
+    )
     assert code == 0, err
     lying = read_catalog(content / "assets" / "catalog.yaml")["tower_lying"]
     assert np.allclose(lying.recorded_dimensions, [0.05, 0.12, 0.03], atol=1e-4)
 
     obj = write_mesh(tmp_path / "obj" / "tower.obj", tall)  # with material.mtl and its texture beside it
-    code, _, err = add(capsys, str(obj), "--name", "tower_obj", "--class", "toy", "--up", "y", "--content",
-                       str(content), "--no-sheet")  # fmt: skip
+    code, _, err = add(
+        capsys, str(obj), "--name", "tower_obj", "--class", "toy", "--up", "y", "--content", str(content), "--no-sheet"
+    )
     assert code == 0, err
     copied = read_catalog(content / "assets" / "catalog.yaml")["tower_obj"]
     assert copied.source["textured"] is True
     assert sorted(path.name for path in copied.visual_files()[0].parent.iterdir()) == sorted(
-        path.name for path in obj.parent.iterdir())  # the material library and its texture came along
+        path.name for path in obj.parent.iterdir()
+    )  # the material library and its texture came along
     assert np.allclose(copied.recorded_dimensions, [0.05, 0.03, 0.12], atol=1e-4)
 
 
@@ -174,8 +202,9 @@ def test_repairs_are_made_and_reported_and_a_missing_file_is_named(tmp_path, cap
     box = trimesh.creation.box([0.08, 0.08, 0.05])
     lidless = trimesh.Trimesh(box.vertices, box.faces[box.face_normals[:, 2] < 0.5])  # its top is a square hole
     mesh = write_mesh(tmp_path / "tray.obj", lidless)
-    code, out, err = add(capsys, str(mesh), "--name", "tray_box", "--class", "box", "--content",
-                         str(tmp_path / "mine"), "--no-sheet")  # fmt: skip
+    code, out, err = add(
+        capsys, str(mesh), "--name", "tray_box", "--class", "box", "--content", str(tmp_path / "mine"), "--no-sheet"
+    )
     assert code == 0, err
     assert "repaired: filled holes" in out
 
@@ -184,14 +213,27 @@ def test_repairs_are_made_and_reported_and_a_missing_file_is_named(tmp_path, cap
 
 
 def test_an_object_that_fails_the_sapien_check_leaves_nothing_behind(tmp_path, capsys):
-    leaning = trimesh.convex.convex_hull(np.array([  # its top overhangs its foot: it falls over
-        [0, 0, 0], [0.02, 0, 0], [0, 0.03, 0], [0.02, 0.03, 0],
-        [0.1, 0, 0.1], [0.12, 0, 0.1], [0.1, 0.03, 0.1], [0.12, 0.03, 0.1],
-    ], dtype=float))  # fmt: skip
+    leaning = trimesh.convex.convex_hull(
+        np.array(
+            [  # its top overhangs its foot: it falls over
+                [0, 0, 0],
+                [0.02, 0, 0],
+                [0, 0.03, 0],
+                [0.02, 0.03, 0],
+                [0.1, 0, 0.1],
+                [0.12, 0, 0.1],
+                [0.1, 0.03, 0.1],
+                [0.12, 0.03, 0.1],
+            ],
+            dtype=float,
+        )
+    )
     content = tmp_path / "mine"
     first = write_mesh(tmp_path / "block.stl", trimesh.creation.box([0.05, 0.05, 0.05]))
-    assert add(capsys, str(first), "--name", "cube_five", "--class", "block", "--content", str(content),
-               "--no-sheet")[0] == 0  # fmt: skip
+    assert (
+        add(capsys, str(first), "--name", "cube_five", "--class", "block", "--content", str(content), "--no-sheet")[0]
+        == 0
+    )
     catalog_file = content / "assets" / "catalog.yaml"
     before = catalog_file.read_text()
     mesh = write_mesh(tmp_path / "leaning.stl", leaning)
@@ -218,8 +260,9 @@ def test_names_are_unique_and_replace_replaces(tmp_path, capsys):
     code, _, err = add(capsys, str(mesh), "--name", "cube", "--class", "block", "--content", str(content))
     assert code == 2 and "already in" in err and "--replace" in err
     bigger = write_mesh(tmp_path / "bigger.stl", trimesh.creation.box([0.07, 0.07, 0.07]))
-    code, _, err = add(capsys, str(bigger), "--name", "cube", "--class", "block", "--content", str(content),
-                       "--replace", "--no-sheet")  # fmt: skip
+    code, _, err = add(
+        capsys, str(bigger), "--name", "cube", "--class", "block", "--content", str(content), "--replace", "--no-sheet"
+    )
     assert code == 0, err
     catalog = read_catalog(content / "assets" / "catalog.yaml")
     assert catalog.names() == ["cube"] and np.allclose(catalog["cube"].recorded_dimensions, 0.07, atol=1e-4)
@@ -250,8 +293,9 @@ success:
 def test_a_scene_in_the_same_content_folder_places_the_new_object(tmp_path, capsys):
     content = tmp_path / "mine"
     mesh = write_mesh(tmp_path / "ring.obj", torus())
-    code, _, err = add(capsys, str(mesh), "--name", "my_ring", "--class", "toy", "--content", str(content),
-                       "--no-sheet")  # fmt: skip
+    code, _, err = add(
+        capsys, str(mesh), "--name", "my_ring", "--class", "toy", "--content", str(content), "--no-sheet"
+    )
     assert code == 0, err
     (content / "scene_builders").mkdir()
     (content / "scene_builders" / "my_ring_scene.yaml").write_text(SCENE)
@@ -261,8 +305,13 @@ def test_a_scene_in_the_same_content_folder_places_the_new_object(tmp_path, caps
     environment = {**os.environ, "PYTHONPATH": str(REPO), CONTENT_ENV: str(content)}
 
     def robolab(*args: str) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "robolab_ms.cli", *args], capture_output=True, text=True,
-                              env=environment, timeout=600)  # fmt: skip
+        return subprocess.run(
+            [sys.executable, "-m", "robolab_ms.cli", *args],
+            capture_output=True,
+            text=True,
+            env=environment,
+            timeout=600,
+        )
 
     listing = robolab("catalog", "list")
     assert listing.returncode == 0, listing.stderr
@@ -271,8 +320,20 @@ def test_a_scene_in_the_same_content_folder_places_the_new_object(tmp_path, caps
     tasks = robolab("list")
     assert tasks.returncode == 0 and any(line.startswith("MyRingTask") for line in tasks.stdout.splitlines())
     out = tmp_path / "run"
-    evaluated = robolab("eval", "--policy", "random", "--task", "MyRingTask", "--episodes", "1", "--max-steps", "3",
-                        "--out", str(out), "--quiet")  # fmt: skip
+    evaluated = robolab(
+        "eval",
+        "--policy",
+        "random",
+        "--task",
+        "MyRingTask",
+        "--episodes",
+        "1",
+        "--max-steps",
+        "3",
+        "--out",
+        str(out),
+        "--quiet",
+    )
     assert evaluated.returncode == 0, evaluated.stderr
     (episode,) = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     assert episode["task"] == "MyRingTask" and episode["steps"] == 3 and episode["error"] is None
@@ -281,8 +342,9 @@ def test_a_scene_in_the_same_content_folder_places_the_new_object(tmp_path, caps
 def test_user_catalogs_are_checked_joined_and_rebuilt(tmp_path, capsys, monkeypatch):
     content = tmp_path / "mine"
     mesh = write_mesh(tmp_path / "block.stl", trimesh.creation.box([0.05, 0.05, 0.05]))
-    assert add(capsys, str(mesh), "--name", "my_cube", "--class", "block", "--content", str(content),
-               "--no-sheet")[0] == 0  # fmt: skip
+    assert (
+        add(capsys, str(mesh), "--name", "my_cube", "--class", "block", "--content", str(content), "--no-sheet")[0] == 0
+    )
     catalog_file = content / "assets" / "catalog.yaml"
     assert "my_cube" not in load_catalog()
     monkeypatch.setenv(CONTENT_ENV, str(content))
@@ -292,7 +354,8 @@ def test_user_catalogs_are_checked_joined_and_rebuilt(tmp_path, capsys, monkeypa
     report = build_catalog(catalog_file, progress=lambda line: None)  # `robolab catalog build --catalog FILE`
     assert report.built == [] and report.skipped == ["my_cube"] and not report.catalog_changed
     (content / "assets" / "meshes" / "my_cube" / "block.stl").write_bytes(
-        trimesh.exchange.stl.export_stl(trimesh.creation.box([0.05, 0.05, 0.08])))  # the file changed: rebuilt
+        trimesh.exchange.stl.export_stl(trimesh.creation.box([0.05, 0.05, 0.08]))
+    )  # the file changed: rebuilt
     report = build_catalog(catalog_file, progress=lambda line: None)
     assert report.built == ["my_cube"]
     assert np.allclose(read_catalog(catalog_file)["my_cube"].recorded_dimensions, [0.05, 0.05, 0.08], atol=1e-4)

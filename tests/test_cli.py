@@ -22,8 +22,19 @@ def test_list_shows_tasks_with_difficulty():
 
 def test_eval_writes_episodes_and_summary_and_resumes(tmp_path):
     out = tmp_path / "run"
-    args = ("eval", "--policy", "random", "--task", "BananaInBowl", "--episodes", "2", "--max-steps", "10",
-            "--out", str(out))  # fmt: skip
+    args = (
+        "eval",
+        "--policy",
+        "random",
+        "--task",
+        "BananaInBowl",
+        "--episodes",
+        "2",
+        "--max-steps",
+        "10",
+        "--out",
+        str(out),
+    )
     first = run(*args)
     assert first.returncode == 0, first.stderr
     lines = (out / "episodes.jsonl").read_text().splitlines()
@@ -41,8 +52,9 @@ def test_eval_writes_episodes_and_summary_and_resumes(tmp_path):
     three[three.index("--episodes") + 1] = "3"  # only seed 2 is new
     again = run(*three)
     assert again.returncode == 0, again.stderr
-    seeds = [json.loads(line)["seed"] for line in (out / "episodes.jsonl").read_text().splitlines()
-             if line.endswith("}")]  # fmt: skip
+    seeds = [
+        json.loads(line)["seed"] for line in (out / "episodes.jsonl").read_text().splitlines() if line.endswith("}")
+    ]
     assert seeds == [0, 1, 2]
 
 
@@ -59,7 +71,9 @@ def test_unknown_policy_is_reported():
 
 
 def test_eval_runs_the_droid_robot_by_default_and_names_an_unknown_one(tmp_path):
-    result = run("eval", "--task", "BananaInBowl", "--episodes", "1", "--max-steps", "3", "--out", str(tmp_path), "--quiet")
+    result = run(
+        "eval", "--task", "BananaInBowl", "--episodes", "1", "--max-steps", "3", "--out", str(tmp_path), "--quiet"
+    )
     assert result.returncode == 0, result.stderr
     assert json.loads((tmp_path / "episodes.jsonl").read_text().splitlines()[0])["robot"] == "droid"
     result = run("eval", "--task", "BananaInBowl", "--robot", "pandaa", "--out", str(tmp_path))
@@ -68,8 +82,21 @@ def test_eval_runs_the_droid_robot_by_default_and_names_an_unknown_one(tmp_path)
 
 def test_policy_name_files_results_under_another_name(tmp_path):
     out = tmp_path / "named"
-    result = run("eval", "--policy", "hold", "--policy-name", "hold-v2", "--task", "BananaInBowl", "--episodes", "1",
-                 "--max-steps", "3", "--out", str(out))  # fmt: skip
+    result = run(
+        "eval",
+        "--policy",
+        "hold",
+        "--policy-name",
+        "hold-v2",
+        "--task",
+        "BananaInBowl",
+        "--episodes",
+        "1",
+        "--max-steps",
+        "3",
+        "--out",
+        str(out),
+    )
     assert result.returncode == 0, result.stderr
     episode = json.loads((out / "episodes.jsonl").read_text())
     assert episode["policy"] == "hold-v2"

@@ -93,19 +93,27 @@ def folders(workspace) -> dict[str, Path]:
     lines = [json.loads(line) for line in (made["random_two"] / "episodes.jsonl").read_text().splitlines()]
     earlier = workspace / "earlier_version"
     earlier.mkdir()
-    (earlier / "episodes.jsonl").write_text("".join(
-        json.dumps({**{k: v for k, v in line.items() if k in FIRST_VERSION_FIELDS}, "robot": "panda", "metrics": {}})
-        + "\n" for line in lines))  # fmt: skip
+    (earlier / "episodes.jsonl").write_text(
+        "".join(
+            json.dumps(
+                {**{k: v for k, v in line.items() if k in FIRST_VERSION_FIELDS}, "robot": "panda", "metrics": {}}
+            )
+            + "\n"
+            for line in lines
+        )
+    )
     partial = workspace / "partial"
     partial.mkdir()
     text = "".join(json.dumps(line) + "\n" for line in lines)
     (partial / "episodes.jsonl").write_text(text + text.splitlines()[0][:90])
     broken = workspace / "broken"
     shutil.copytree(made["random_two"], broken, ignore=shutil.ignore_patterns(".writer.lock"))
-    (broken / "episodes.jsonl").write_text("".join(json.dumps({**line, "score": "high"} if i == 1 else line) + "\n"
-                                                   for i, line in enumerate(lines)))  # fmt: skip
-    synthetic = write_synthetic_run(workspace / "synthetic", "model", list(TWO), 15, light_dependent_success,
-                                    params=LIGHT_SPACE)  # fmt: skip
+    (broken / "episodes.jsonl").write_text(
+        "".join(json.dumps({**line, "score": "high"} if i == 1 else line) + "\n" for i, line in enumerate(lines))
+    )
+    synthetic = write_synthetic_run(
+        workspace / "synthetic", "model", list(TWO), 15, light_dependent_success, params=LIGHT_SPACE
+    )
     damaged = workspace / "damaged_recording"
     shutil.copytree(made["recorded"], damaged, ignore=shutil.ignore_patterns(".writer.lock"))
     next((damaged / "recordings").rglob("*.json")).write_text('{"robolab": {"task": "BananaInBowl", "seed": ')
@@ -117,8 +125,7 @@ def folders(workspace) -> dict[str, Path]:
     (workspace / "real.csv").write_text("policy,success,episodes\nrandom,0.1,20\nhold,0,20\n")
     (workspace / "real_bad.csv").write_text("policy,success\nrandom,high\n")
     (workspace / "a_file").write_text("not a folder\n")
-    made.update(earlier_version=earlier, partial=partial, broken=broken, synthetic=synthetic, damaged=damaged,
-                usd=usd)  # fmt: skip
+    made.update(earlier_version=earlier, partial=partial, broken=broken, synthetic=synthetic, damaged=damaged, usd=usd)
     return made
 
 
@@ -134,8 +141,9 @@ class _Places(dict):
     def __missing__(self, key: str) -> str:
         if key.startswith("copy_"):
             target = self.tmp / key
-            shutil.copytree(self.folders[key.removeprefix("copy_")], target,
-                            ignore=shutil.ignore_patterns(".writer.lock"))  # fmt: skip
+            shutil.copytree(
+                self.folders[key.removeprefix("copy_")], target, ignore=shutil.ignore_patterns(".writer.lock")
+            )
             self[key] = str(target)
             return self[key]
         raise KeyError(key)
@@ -193,7 +201,9 @@ def _partial_parameter_plot(tmp: Path, printed: str) -> None:
 def _first_version_tables(tmp: Path, printed: str) -> None:
     overall = pd.read_csv(tmp / "analysis" / "overall.csv")
     assert overall["episodes"].sum() == 4 and set(pd.read_csv(tmp / "analysis" / "by_robot.csv")["robot"]) == {
-        "droid", "panda"}  # fmt: skip
+        "droid",
+        "panda",
+    }
 
 
 def _partial_tables(tmp: Path, printed: str) -> None:
@@ -413,8 +423,9 @@ def test_serve_and_evaluate_against_it(folders, tmp_path):
     try:
         ran = run_cli("eval", *SHORT, "--policy", "openpi", "--port", port, "--task", ONE, "--out", tmp_path / "out")
         assert_clean(ran, frozenset({0}))
-        second = subprocess.run([ROBOLAB, "serve", "--policy", "random", "--port", port], capture_output=True,
-                                text=True, timeout=300)  # fmt: skip
+        second = subprocess.run(
+            [ROBOLAB, "serve", "--policy", "random", "--port", port], capture_output=True, text=True, timeout=300
+        )
         assert_clean(Ran(second.returncode, second.stdout + second.stderr), frozenset({2}))
         assert "cannot listen" in second.stderr
     finally:

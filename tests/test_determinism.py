@@ -126,8 +126,14 @@ def test_another_process_gives_the_same_episodes(reference_runs):
         "print(json.dumps({task: t.digest(t.rollout(env, 0, t.random_actions(env))) "
         "for task, env in ((task, t.make(task)) for task in t.TASKS)}))"
     )
-    output = subprocess.run([sys.executable, "-c", script, str(Path(__file__).parent)], capture_output=True,
-                            text=True, timeout=600, env={**os.environ, "PYTHONWARNINGS": "ignore"}, check=True)  # fmt: skip
+    output = subprocess.run(
+        [sys.executable, "-c", script, str(Path(__file__).parent)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+        check=True,
+    )
     digests = json.loads(output.stdout.strip().splitlines()[-1])
     assert digests == {task: digest(run) for task, run in reference_runs.items()}
 
@@ -156,12 +162,19 @@ def test_evaluation_results_do_not_depend_on_earlier_episodes(tmp_path):
 
     config = EvalConfig(tasks=("BananaInBowl",), episodes=3, first_seed=1, max_steps=40)
     together = run_evaluation(make_policy("random"), config, tmp_path / "together", show_progress=False)
-    alone = run_evaluation(make_policy("random"), EvalConfig(tasks=("BananaInBowl",), episodes=1, first_seed=2,
-                                                             max_steps=40), tmp_path / "alone", show_progress=False)  # fmt: skip
+    alone = run_evaluation(
+        make_policy("random"),
+        EvalConfig(tasks=("BananaInBowl",), episodes=1, first_seed=2, max_steps=40),
+        tmp_path / "alone",
+        show_progress=False,
+    )
 
     def comparable(result) -> dict:
-        return {key: value for key, value in result.__dict__.items() if "seconds" not in key and "ms" not in key
-                and "per_second" not in key}  # fmt: skip
+        return {
+            key: value
+            for key, value in result.__dict__.items()
+            if "seconds" not in key and "ms" not in key and "per_second" not in key
+        }
 
     seed_two = next(result for result in together if result.seed == 2)
     assert comparable(seed_two) == comparable(alone[0])

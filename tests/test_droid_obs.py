@@ -10,8 +10,14 @@ from robolab_ms.errors import RoboLabError
 def test_droid_keys_shapes_and_types(banana_env):
     env = DroidObservation(banana_env)
     obs, info = env.reset(seed=0)
-    assert set(obs) == {"exterior_image_1_left", "wrist_image_left", "joint_position", "gripper_position",
-                        "eef_pose", "prompt"}  # fmt: skip
+    assert set(obs) == {
+        "exterior_image_1_left",
+        "wrist_image_left",
+        "joint_position",
+        "gripper_position",
+        "eef_pose",
+        "prompt",
+    }
     for key in ("exterior_image_1_left", "wrist_image_left"):
         assert obs[key].shape == (1, 180, 320, 3) and obs[key].dtype == np.uint8
         assert obs[key].std() > 5.0

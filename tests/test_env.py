@@ -4,7 +4,6 @@ import numpy as np
 import torch
 
 
-
 def object_state(env) -> np.ndarray:
     base = env.unwrapped
     return np.concatenate([actor.pose.raw_pose[0].numpy() for actor in base.objects.values()])
@@ -79,4 +78,6 @@ def test_a_quiet_episode_records_no_events(banana_env):
     for seed in (0, 1, 2):
         banana_env.reset(seed=seed)
         hold_still(banana_env, 15)
-        assert banana_env.unwrapped.task_evaluator.events.log[0] == [], f"seed {seed}: {banana_env.unwrapped.task_evaluator.events.log[0]}"
+        assert banana_env.unwrapped.task_evaluator.events.log[0] == [], (
+            f"seed {seed}: {banana_env.unwrapped.task_evaluator.events.log[0]}"
+        )

@@ -4,9 +4,9 @@ import math
 
 import numpy as np
 import pytest
+from helpers import hold_arm_action, put
 
 from robolab_ms.tasks.events import EVENT_TYPES
-from helpers import hold_arm_action, put
 
 TABLE_TOUCH_QPOS = [0.0, 0.9, 0.0, -1.6, 0.0, 2.5, 0.785]  # fingertips at the table top, between blocks
 TRIGGERED = set()

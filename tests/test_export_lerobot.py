@@ -55,8 +55,9 @@ def decoded_frames(path: Path) -> tuple[np.ndarray, list[float]]:
 
 def test_export_writes_the_documented_v3_layout(run_dir, tmp_path):
     out = tmp_path / "dataset"
-    result = subprocess.run([ROBOLAB, "export", "lerobot", str(run_dir), str(out)], capture_output=True, text=True,
-                            timeout=600)  # fmt: skip
+    result = subprocess.run(
+        [ROBOLAB, "export", "lerobot", str(run_dir), str(out)], capture_output=True, text=True, timeout=600
+    )
     assert result.returncode == 0, result.stdout + result.stderr
     assert "3 episode(s), 15 frame(s)" in result.stdout
 
@@ -70,8 +71,14 @@ def test_export_writes_the_documented_v3_layout(run_dir, tmp_path):
     for name in ("observation.state", "action"):
         assert features[name]["dtype"] == "float32" and features[name]["shape"] == [8]
         assert features[name]["names"][-1] == "gripper"
-    for name, dtype in (("timestamp", "float32"), ("frame_index", "int64"), ("episode_index", "int64"),
-                        ("index", "int64"), ("task_index", "int64"), ("next.done", "bool")):  # fmt: skip
+    for name, dtype in (
+        ("timestamp", "float32"),
+        ("frame_index", "int64"),
+        ("episode_index", "int64"),
+        ("index", "int64"),
+        ("task_index", "int64"),
+        ("next.done", "bool"),
+    ):
         assert features[name] == {"dtype": dtype, "shape": [1], "names": None}
     for key in CAMERAS:
         assert features[key]["dtype"] == "video" and features[key]["shape"] == [180, 320, 3]
@@ -86,7 +93,11 @@ def test_export_writes_the_documented_v3_layout(run_dir, tmp_path):
     assert episodes["episode_index"].tolist() == [0, 1, 2] and episodes["length"].tolist() == [STEPS] * 3
     assert episodes["success"].tolist() == [False, True, False] and episodes["seed"].tolist() == [0, 1, 2]
     assert [list(t) for t in episodes["tasks"]] == [["Put the banana in the bowl."]] * 3
-    assert episodes["dataset_from_index"].tolist() == [0, 5, 10] and episodes["dataset_to_index"].tolist() == [5, 10, 15]
+    assert episodes["dataset_from_index"].tolist() == [0, 5, 10] and episodes["dataset_to_index"].tolist() == [
+        5,
+        10,
+        15,
+    ]
     assert (episodes["meta/episodes/chunk_index"] == 0).all() and (episodes["data/file_index"] == 0).all()
     for key in CAMERAS:
         assert episodes[f"videos/{key}/from_timestamp"].tolist() == pytest.approx([0, 5 / FPS, 10 / FPS])
@@ -105,7 +116,9 @@ def test_export_writes_the_documented_v3_layout(run_dir, tmp_path):
     assert (frame["task_index"] == 0).all()
     with h5py.File(run_dir / "recordings/BananaInBowl/default-droid-random-seed2.h5", "r") as recording:
         group = recording["traj_0"]
-        state = np.concatenate([group["robolab/joint_position"][:STEPS], group["obs/extra/gripper_position"][:STEPS]], 1)
+        state = np.concatenate(
+            [group["robolab/joint_position"][:STEPS], group["obs/extra/gripper_position"][:STEPS]], 1
+        )
         np.testing.assert_array_equal(np.stack(frame["observation.state"][10:15]), state)
         np.testing.assert_array_equal(np.stack(frame["action"][10:15]), group["actions"][:])
         images = {key: group[f"obs/sensor_data/{key.rsplit('.', 1)[1]}/rgb"][:STEPS] for key in CAMERAS}

@@ -50,7 +50,9 @@ def test_void_measure_catches_the_old_grid_floor(monkeypatch):
     from robolab_ms.scene import TABLE_HEIGHT
     from robolab_ms.scene.builder import RoboLabSceneBuilder
 
-    monkeypatch.setattr(RoboLabSceneBuilder, "_build_floor", lambda self: build_ground(self.scene, altitude=-TABLE_HEIGHT))
+    monkeypatch.setattr(
+        RoboLabSceneBuilder, "_build_floor", lambda self: build_ground(self.scene, altitude=-TABLE_HEIGHT)
+    )
     monkeypatch.setattr(RoboLabSceneBuilder, "_build_backdrop", lambda self: None)
     spec = load_scene("banana_bowl")
     env = _fidelity_env_class()(spec, 48, 27)

@@ -31,19 +31,24 @@ def test_objects_stand_on_the_level_they_name():
 
 def scene_file(tmp_path, *lines: str):
     path = tmp_path / "shelf_test.yaml"
-    path.write_text("name: shelf_test\nobjects:\n  - {name: rack, asset: rack_wooden, xy: [0.5, 0.0]}\n"
-                    + "".join(f"  - {line}\n" for line in lines))  # fmt: skip
+    path.write_text(
+        "name: shelf_test\nobjects:\n  - {name: rack, asset: rack_wooden, xy: [0.5, 0.0]}\n"
+        + "".join(f"  - {line}\n" for line in lines)
+    )
     return path
 
 
-@pytest.mark.parametrize("line, field, words", [
-    ("{asset: mug_white, xy: [0.5, 0.0], rests_on: rack}", "level", "has 3 levels"),
-    ("{asset: mug_white, xy: [0.5, 0.0], rests_on: rack, level: 3}", "level", "not a level"),
-    ("{asset: mug_white, xy: [0.3, 0.0], level: 1}", "level", "does not rest on a fixture"),
-    ("{asset: mug_white, xy: [0.5, 0.3], rests_on: rack, level: 1}", "xy", "not over"),
-    ("{asset: utility_jug_tall, xy: [0.5, 0.0], rests_on: rack, level: 1}", "xy", "into the fixture"),
-    ("{asset: mug_white, xy: [0.5, 0.135], rests_on: rack, level: 1}", "xy", "into the fixture"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "line, field, words",
+    [
+        ("{asset: mug_white, xy: [0.5, 0.0], rests_on: rack}", "level", "has 3 levels"),
+        ("{asset: mug_white, xy: [0.5, 0.0], rests_on: rack, level: 3}", "level", "not a level"),
+        ("{asset: mug_white, xy: [0.3, 0.0], level: 1}", "level", "does not rest on a fixture"),
+        ("{asset: mug_white, xy: [0.5, 0.3], rests_on: rack, level: 1}", "xy", "not over"),
+        ("{asset: utility_jug_tall, xy: [0.5, 0.0], rests_on: rack, level: 1}", "xy", "into the fixture"),
+        ("{asset: mug_white, xy: [0.5, 0.135], rests_on: rack, level: 1}", "xy", "into the fixture"),
+    ],
+)
 def test_bad_levels_are_refused_with_the_field_and_a_fix(tmp_path, line, field, words):
     with pytest.raises(SpecError) as error:
         read_scene(scene_file(tmp_path, line))
@@ -52,8 +57,10 @@ def test_bad_levels_are_refused_with_the_field_and_a_fix(tmp_path, line, field, 
 
 def test_a_fixture_stands_on_the_table(tmp_path):
     path = tmp_path / "shelf_test.yaml"
-    path.write_text("name: shelf_test\nobjects:\n  - {name: box, asset: cube_box_cardboard, xy: [0.5, 0.0]}\n"
-                    "  - {name: rack, asset: rack_wooden, xy: [0.5, 0.0], rests_on: box}\n")  # fmt: skip
+    path.write_text(
+        "name: shelf_test\nobjects:\n  - {name: box, asset: cube_box_cardboard, xy: [0.5, 0.0]}\n"
+        "  - {name: rack, asset: rack_wooden, xy: [0.5, 0.0], rests_on: box}\n"
+    )
     with pytest.raises(SpecError, match=r"objects\[1\]\.rests_on.*fixture"):
         read_scene(path)
 
@@ -81,7 +88,9 @@ def test_objects_rest_on_a_level_and_the_rack_stays_put_when_hit():
                 env.scene.step()
             for name in ("mug", "ceramic_mug"):
                 assert float((objects[name].pose.p[0] - start[name]).norm()) < 0.02, name
-                assert float(objects[name].pose.p[0, 2]) == pytest.approx(RACK_LEVELS[1], abs=0.005)  # on the middle level
+                assert float(objects[name].pose.p[0, 2]) == pytest.approx(
+                    RACK_LEVELS[1], abs=0.005
+                )  # on the middle level
         assert float((places[0] - places[1]).norm()) > 1e-3  # the jitter moves the mugs on the rack
         # the jug, thrown at the rack's post at 2 m/s, bounces off it; the rack does not move
         jug = objects["utilityjug_a01"]

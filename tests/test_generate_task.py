@@ -37,9 +37,14 @@ def catalog():
 
 
 def _write_task(folder: Path, name: str, instruction: str, condition: dict, scene: str = SCENE) -> Path:
-    data = {"name": name, "scene": scene, "episode_seconds": 30, "attributes": [],
-            "instructions": {"default": instruction, "vague": instruction, "specific": instruction},
-            "success": [condition]}  # fmt: skip
+    data = {
+        "name": name,
+        "scene": scene,
+        "episode_seconds": 30,
+        "attributes": [],
+        "instructions": {"default": instruction, "vague": instruction, "specific": instruction},
+        "success": [condition],
+    }
     path = folder / f"{name}.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     return path
@@ -51,14 +56,40 @@ def test_offline_task_end_to_end_on_a_generated_scene(tmp_path):
     listed by `robolab list --content` and solved by the oracle through `robolab eval`."""
     content = tmp_path / "content"
     scene_file = content / "scene_builders" / "gen_mug_bowl.yaml"
-    made = subprocess.run([*ROBOLAB, "generate", "scene", "A red mug to the left of a white bowl, and a banana in "
-                           "front of the mug.", "--out", str(scene_file), "--no-preview"], capture_output=True,
-                          text=True, timeout=600)  # fmt: skip
+    made = subprocess.run(
+        [
+            *ROBOLAB,
+            "generate",
+            "scene",
+            "A red mug to the left of a white bowl, and a banana in front of the mug.",
+            "--out",
+            str(scene_file),
+            "--no-preview",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert made.returncode == 0, made.stderr
     out = content / "task_specs" / "GenBananaInWhiteBowl.yaml"
-    done = subprocess.run([*ROBOLAB, "generate", "task", "gen_mug_bowl", "put the banana in the white bowl",
-                           "--content", str(content), "--out", str(out), "--seeds", "1"], capture_output=True,
-                          text=True, timeout=600)  # fmt: skip
+    done = subprocess.run(
+        [
+            *ROBOLAB,
+            "generate",
+            "task",
+            "gen_mug_bowl",
+            "put the banana in the white bowl",
+            "--content",
+            str(content),
+            "--out",
+            str(out),
+            "--seeds",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     assert "judge (rules): aligned" in done.stdout and "oracle 100%" in done.stdout
     data = yaml.safe_load(out.read_text())
@@ -70,14 +101,35 @@ def test_offline_task_end_to_end_on_a_generated_scene(tmp_path):
     transcript = json.loads(out.with_name("GenBananaInWhiteBowl.transcript.json").read_text())
     assert transcript["kind"] == "task" and transcript["outcome"] == "accepted"
     assert transcript["rounds"][-1]["checks"]["validate"]["passed"] is True
-    listed = subprocess.run([*ROBOLAB, "list", "--content", str(content), "--task", "GenBananaInWhiteBowl"],
-                            capture_output=True, text=True, timeout=300)  # fmt: skip
+    listed = subprocess.run(
+        [*ROBOLAB, "list", "--content", str(content), "--task", "GenBananaInWhiteBowl"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert listed.returncode == 0, listed.stderr
     assert "GenBananaInWhiteBowl" in listed.stdout
     results = tmp_path / "eval"
-    evaluated = subprocess.run([*ROBOLAB, "eval", "--content", str(content), "--task", "GenBananaInWhiteBowl",
-                                "--policy", "oracle", "--episodes", "1", "--out", str(results), "--quiet"],
-                               capture_output=True, text=True, timeout=600)  # fmt: skip
+    evaluated = subprocess.run(
+        [
+            *ROBOLAB,
+            "eval",
+            "--content",
+            str(content),
+            "--task",
+            "GenBananaInWhiteBowl",
+            "--policy",
+            "oracle",
+            "--episodes",
+            "1",
+            "--out",
+            str(results),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert evaluated.returncode == 0, evaluated.stderr
     episodes = [json.loads(line) for line in (results / "episodes.jsonl").read_text().splitlines()]
     assert len(episodes) == 1 and episodes[0]["success"] is True
@@ -90,8 +142,9 @@ def test_http_endpoint_with_a_schema_error_then_validation(tmp_path, catalog, ll
     server = llm_server([bad, GOOD, {"aligned": True, "problems": []}])
     client = ChatClient(EndpointSettings(server.base_url, "scripted-model", "test-key"), timeout=30)
     out = tmp_path / "task_specs" / "HttpBananaInBowl.yaml"
-    result = generate_task(SCENE, "Put the banana in the bowl", out, client, ModelJudge(client, catalog), seeds=1,
-                           catalog=catalog)  # fmt: skip
+    result = generate_task(
+        SCENE, "Put the banana in the bowl", out, client, ModelJudge(client, catalog), seeds=1, catalog=catalog
+    )
     assert result.accepted and result.rounds == 2, result.problems
     requests = server.requests()
     assert len(requests) == 3 and all(r["model"] == "scripted-model" for r in requests)
@@ -116,16 +169,27 @@ def test_http_endpoint_with_a_schema_error_then_validation(tmp_path, catalog, ll
 def test_judge_rejection_goes_back_as_feedback(tmp_path, catalog, llm_server):
     """The model writes left_of for 'right of'; the LLM judge rejects it, its reason reaches the model, and the
     corrected answer is accepted (validation skipped with seeds=0)."""
-    wrong = {**GOOD, "attributes": ["spatial"],
-             "success": [{"predicate": "left_of", "objects": ["banana"], "reference": "bowl",
-                          "require_gripper_detached": True}]}  # fmt: skip
+    wrong = {
+        **GOOD,
+        "attributes": ["spatial"],
+        "success": [
+            {"predicate": "left_of", "objects": ["banana"], "reference": "bowl", "require_gripper_detached": True}
+        ],
+    }
     right = {**wrong, "success": [{**wrong["success"][0], "predicate": "right_of"}]}
     reason = "the instruction says right of the bowl, the condition uses left_of"
     server = llm_server([wrong, {"aligned": False, "problems": [reason]}, right, {"aligned": True, "problems": []}])
     client = ChatClient(EndpointSettings(server.base_url, "m", "k"), timeout=30)
     out = tmp_path / "BananaRightOfBowl.yaml"
-    result = generate_task(SCENE, "Put the banana to the right of the bowl", out, client, ModelJudge(client, catalog),
-                           seeds=0, catalog=catalog)  # fmt: skip
+    result = generate_task(
+        SCENE,
+        "Put the banana to the right of the bowl",
+        out,
+        client,
+        ModelJudge(client, catalog),
+        seeds=0,
+        catalog=catalog,
+    )
     assert result.accepted and result.rounds == 2
     assert result.first_judgement.verdict == MISALIGNED and result.judgement.verdict == ALIGNED
     generator_round_two = server.requests()[2]["messages"]
@@ -133,8 +197,9 @@ def test_judge_rejection_goes_back_as_feedback(tmp_path, catalog, llm_server):
     assert read_task(out).success[0].predicate == "right_of"
     # the rules judge rejects the same wrong answer by itself
     (tmp_path / "wrong").mkdir()
-    wrong_file = _write_task(tmp_path / "wrong", "BananaLeftWrong", "Put the banana to the right of the bowl",
-                             wrong["success"][0])  # fmt: skip
+    wrong_file = _write_task(
+        tmp_path / "wrong", "BananaLeftWrong", "Put the banana to the right of the bowl", wrong["success"][0]
+    )
     verdict = RulesJudge(catalog).judge("Put the banana to the right of the bowl", read_task(wrong_file))
     assert verdict.verdict == MISALIGNED and "right of" in verdict.problems[0] and "right_of" in verdict.problems[0]
 
@@ -143,24 +208,50 @@ def test_rules_judge_on_mismatched_conditions(tmp_path, catalog):
     """Wrong object, wrong colour, wrong count, wrong container, an order the instruction does not ask for: each
     rejected with a reason naming it; the hand-written conditions of the same tasks accepted."""
     judge = RulesJudge(catalog)
-    for task in ("RedItemsInBin", "BananasInBinThreeTotal", "RubiksCubeThenBanana", "ToolOrganization",
-                 "FruitsMovingOrangeOrLime", "WhiteMugInCenterOfTable", "StackYellowOnRed"):  # fmt: skip
+    for task in (
+        "RedItemsInBin",
+        "BananasInBinThreeTotal",
+        "RubiksCubeThenBanana",
+        "ToolOrganization",
+        "FruitsMovingOrangeOrLime",
+        "WhiteMugInCenterOfTable",
+        "StackYellowOnRed",
+    ):
         spec = load_task(task)
         assert judge.judge(spec.instructions["default"], spec).verdict == ALIGNED, task
     cases = [
-        ("Put the banana in the bowl.", {"predicate": "in_container", "objects": ["rubiks_cube"], "container": "bowl"},
-         SCENE, "names 'the banana'"),
-        ("Put the red mug in the grey bin.", {"predicate": "in_container", "objects": ["banana"],
-                                              "container": "grey_bin"}, "rubiks_cube_banana_bowl_mug_bin", "banana"),
-        ("Put the white mugs in the grey bin.", {"predicate": "in_container", "objects": ["mug"],
-                                                 "container": "grey_bin"}, "mugs2_bananas2_ketchup_rubiks3_bin", "mug_01"),
-        ("Put the Rubik's cube in the bowl.", {"predicate": "in_container", "objects": ["rubiks_cube"],
-                                               "container": "grey_bin"}, "rubiks_cube_banana_bowl_mug_bin", "grey_bin"),
-        ("Put the Rubik's cube and the banana in the bowl.",
-         {"predicate": "placed_in_container_in_order", "objects": ["rubiks_cube", "banana"], "container": "bowl"},
-         SCENE, "order"),
+        (
+            "Put the banana in the bowl.",
+            {"predicate": "in_container", "objects": ["rubiks_cube"], "container": "bowl"},
+            SCENE,
+            "names 'the banana'",
+        ),
+        (
+            "Put the red mug in the grey bin.",
+            {"predicate": "in_container", "objects": ["banana"], "container": "grey_bin"},
+            "rubiks_cube_banana_bowl_mug_bin",
+            "banana",
+        ),
+        (
+            "Put the white mugs in the grey bin.",
+            {"predicate": "in_container", "objects": ["mug"], "container": "grey_bin"},
+            "mugs2_bananas2_ketchup_rubiks3_bin",
+            "mug_01",
+        ),
+        (
+            "Put the Rubik's cube in the bowl.",
+            {"predicate": "in_container", "objects": ["rubiks_cube"], "container": "grey_bin"},
+            "rubiks_cube_banana_bowl_mug_bin",
+            "grey_bin",
+        ),
+        (
+            "Put the Rubik's cube and the banana in the bowl.",
+            {"predicate": "placed_in_container_in_order", "objects": ["rubiks_cube", "banana"], "container": "bowl"},
+            SCENE,
+            "order",
+        ),
         ("Pick up the banana.", {"predicate": "upright", "objects": ["banana"]}, SCENE, "picked_up"),
-    ]  # fmt: skip
+    ]
     for number, (instruction, condition, scene, expected) in enumerate(cases):
         path = _write_task(tmp_path, f"Mismatch{number}", instruction, condition, scene)
         verdict = judge.judge(instruction, read_task(path))
@@ -173,9 +264,21 @@ def test_rules_judge_on_mismatched_conditions(tmp_path, catalog):
 def test_offline_backend_reads_robolab_instructions(catalog):
     """RoboLab's own instructions on its scenes give the hand-written conditions: predicate, objects (and `k`)
     and the container or reference."""
-    for task in ("BananaThenRubiksCube", "ToolOrganization", "BananasInBinThreeTotal", "BigPumpkinInBin", "MustardInLeftBin",
-                 "StackYellowOnRed", "WhiteMugInCenterOfTable", "PhoneOrRemoteInBin", "ReorientRedMug",
-                 "KeyboardOutOfBin", "GrabABagel", "RubiksCubeBehindBowl", "YellowAndWhiteObjectsInBin"):  # fmt: skip
+    for task in (
+        "BananaThenRubiksCube",
+        "ToolOrganization",
+        "BananasInBinThreeTotal",
+        "BigPumpkinInBin",
+        "MustardInLeftBin",
+        "StackYellowOnRed",
+        "WhiteMugInCenterOfTable",
+        "PhoneOrRemoteInBin",
+        "ReorientRedMug",
+        "KeyboardOutOfBin",
+        "GrabABagel",
+        "RubiksCubeBehindBowl",
+        "YellowAndWhiteObjectsInBin",
+    ):
         spec = load_task(task)
         answer = OfflineTaskModel(catalog, spec.scene).answer(spec.instructions["default"])
         made, gold = answer["success"][0], spec.success[0]
@@ -194,15 +297,26 @@ def test_offline_backend_reads_robolab_instructions(catalog):
 def test_no_file_when_every_round_fails(tmp_path, catalog):
     """An instruction the offline backend cannot read fails every round: no task file, the transcript says why."""
     out = tmp_path / "task_specs" / "Dance.yaml"
-    done = subprocess.run([*ROBOLAB, "generate", "task", SCENE, "Dance with the robot", "--out", str(out),
-                           "--rounds", "2"], capture_output=True, text=True, timeout=300)  # fmt: skip
+    done = subprocess.run(
+        [*ROBOLAB, "generate", "task", SCENE, "Dance with the robot", "--out", str(out), "--rounds", "2"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 1 and "no action it knows" in done.stderr
     assert not out.exists()
     transcript = json.loads(out.with_name("Dance.transcript.json").read_text())
     assert len(transcript["rounds"]) == 2 and transcript["outcome"].startswith("failed")
     with pytest.raises(RoboLabError, match="already exists"):
-        generate_task(SCENE, "Put the banana in the bowl", tmp_path / "BananaInBowl.yaml",
-                      OfflineTaskModel(catalog, load_scene(SCENE)), RulesJudge(catalog), seeds=0, catalog=catalog)  # fmt: skip
+        generate_task(
+            SCENE,
+            "Put the banana in the bowl",
+            tmp_path / "BananaInBowl.yaml",
+            OfflineTaskModel(catalog, load_scene(SCENE)),
+            RulesJudge(catalog),
+            seeds=0,
+            catalog=catalog,
+        )
 
 
 def test_offline_feedback_answers_like_an_author():
@@ -213,8 +327,10 @@ def test_offline_feedback_answers_like_an_author():
     answer = {"episode_seconds": 40, "success": [dict(GOOD["success"][0])]}
     knocked = apply_task_feedback(answer, "- robolab validate (3 seed(s)): random policy succeeds 33% (max 10%)")
     assert knocked["success"][0]["require_picked_up"] is True and answer["success"][0].get("require_picked_up") is None
-    for already in ("random policy succeeds 100% (max 10%)", "solved at reset in 3 seed(s); random policy succeeds "
-                    "67% (max 10%)"):  # fmt: skip
+    for already in (
+        "random policy succeeds 100% (max 10%)",
+        "solved at reset in 3 seed(s); random policy succeeds 67% (max 10%)",
+    ):
         assert apply_task_feedback(answer, already) == answer
     slow = apply_task_feedback(answer, "why the oracle failed: seed 0: ran out of time (750 steps): banana placed")
     assert slow["episode_seconds"] == 60
@@ -230,8 +346,15 @@ def test_scene_given_as_a_file_elsewhere(tmp_path, catalog):
     scene_file = scenes / "my_banana_bowl.yaml"
     scene_file.write_text(load_scene(SCENE).file.read_text().replace(f"name: {SCENE}", "name: my_banana_bowl"))
     out = tmp_path / "tasks" / "MyBananaInBowl.yaml"
-    result = generate_task(str(scene_file), "put the banana in the red bowl", out,
-                           OfflineTaskModel(catalog, load_scene(SCENE)), RulesJudge(catalog), seeds=0, catalog=catalog)  # fmt: skip
+    result = generate_task(
+        str(scene_file),
+        "put the banana in the red bowl",
+        out,
+        OfflineTaskModel(catalog, load_scene(SCENE)),
+        RulesJudge(catalog),
+        seeds=0,
+        catalog=catalog,
+    )
     assert result.accepted and result.judgement.verdict == ALIGNED
     assert yaml.safe_load(out.read_text())["scene"] == "../elsewhere/my_banana_bowl.yaml"
     spec = read_task(out)

@@ -11,8 +11,8 @@ import pytest
 import sapien
 
 from robolab_ms.envs import RoboLabEnv
-from robolab_ms.tasks.predicates import PREDICATES, per_object
 from robolab_ms.tasks.condition import Condition
+from robolab_ms.tasks.predicates import PREDICATES, per_object
 
 GRASP_LAB = Path(__file__).parent / "fixtures" / "GraspLab.yaml"
 LIFT = 0.10  # m

@@ -77,8 +77,10 @@ def chromium() -> str:
 def test_site_in_headless_chromium(site, chromium):
     with HeadlessChromium(chromium) as browser:
         # any alert() the page might run is recorded instead of shown
-        browser.call("Page.addScriptToEvaluateOnNewDocument",
-                     source="window.__alerts = []; window.alert = m => window.__alerts.push(String(m));")  # fmt: skip
+        browser.call(
+            "Page.addScriptToEvaluateOnNewDocument",
+            source="window.__alerts = []; window.alert = m => window.__alerts.push(String(m));",
+        )
         browser.open((site / "index.html").as_uri())
         assert browser.evaluate(NAMES) == [policy for policy, _, _ in POLICIES]
         assert browser.evaluate("document.querySelectorAll('#ranking tbody td:first-child')[2].textContent") == "3"
@@ -86,8 +88,9 @@ def test_site_in_headless_chromium(site, chromium):
         assert browser.evaluate("document.querySelectorAll('script').length") == 1
         assert browser.evaluate("window.__alerts") == []
         assert browser.evaluate("document.body.innerText.includes('<script>alert(1)</script>')")
-        assert browser.evaluate("Array.from(document.querySelectorAll('#tasks thead th')).map(h => h.textContent)"
-                                ".slice(3)") == [policy for policy, _, _ in POLICIES]  # fmt: skip
+        assert browser.evaluate(
+            "Array.from(document.querySelectorAll('#tasks thead th')).map(h => h.textContent).slice(3)"
+        ) == [policy for policy, _, _ in POLICIES]
         assert browser.evaluate("document.title") == "RoboLab leaderboard"
 
         # clicking the Episodes header sorts by number (15, 20, 150), a second click reverses
@@ -96,7 +99,8 @@ def test_site_in_headless_chromium(site, chromium):
         browser.click(episodes_header)
         assert browser.evaluate(NAMES) == ["good", HOSTILE, AMPERSAND]
         assert browser.evaluate(f"document.querySelector('{episodes_header}').getAttribute('aria-sort')") == (
-            "ascending")
+            "ascending"
+        )
         browser.click(episodes_header)
         assert browser.evaluate(NAMES) == [AMPERSAND, HOSTILE, "good"]
         browser.click("#ranking thead th:nth-child(2)")  # Policy: as text
@@ -107,8 +111,9 @@ def test_site_in_headless_chromium(site, chromium):
 
         # a task page: its table, the copied video, the way back
         browser.open((site / "tasks" / "BananaInBowl.html").as_uri())
-        assert browser.evaluate("Array.from(document.querySelectorAll('#policies td.name')).map(c => c.textContent)"
-                                ) == [policy for policy, _, _ in POLICIES]  # fmt: skip
+        assert browser.evaluate(
+            "Array.from(document.querySelectorAll('#policies td.name')).map(c => c.textContent)"
+        ) == [policy for policy, _, _ in POLICIES]
         href = browser.evaluate("document.querySelector('.videos a').getAttribute('href')")
         assert href == "../videos/run0/BananaInBowl/seed0.mp4"
         assert (site / "tasks" / href).resolve().read_bytes()[4:8] == b"ftyp"  # an mp4 inside the site folder
@@ -163,7 +168,7 @@ def test_hostile_task_and_policy_names_stay_text_in_html_and_markdown(tmp_path):
         assert HOSTILE in parser.cells and (task in parser.cells or table == "policies")
     markdown = (tmp_path / "site" / "leaderboard.md").read_text()
     assert "<script>" not in markdown and "<b>" not in markdown
-    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in markdown and "Odd&lt;b&gt;Task&lt;/b&gt;&amp;\"x" in markdown
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in markdown and 'Odd&lt;b&gt;Task&lt;/b&gt;&amp;"x' in markdown
 
 
 def test_site_refuses_a_folder_that_is_not_a_leaderboard(tmp_path):
@@ -183,13 +188,15 @@ def test_site_refuses_a_folder_that_is_not_a_leaderboard(tmp_path):
 def test_ranking_ties_share_a_rank_and_fall_back_to_score():
     import pandas as pd
 
-    episodes = pd.DataFrame({
-        "policy": ["b", "b", "a", "a", "c", "c", "d", "d"],
-        "task": ["T"] * 8,
-        "success": [True, False, True, False, True, False, True, True],
-        "score": [1.0, 0.5, 1.0, 0.5, 1.0, 0.0, 1.0, 1.0],
-        "progress": [1.0, 0.5, 1.0, 0.5, 1.0, 0.0, 1.0, 1.0],
-    })  # fmt: skip
+    episodes = pd.DataFrame(
+        {
+            "policy": ["b", "b", "a", "a", "c", "c", "d", "d"],
+            "task": ["T"] * 8,
+            "success": [True, False, True, False, True, False, True, True],
+            "score": [1.0, 0.5, 1.0, 0.5, 1.0, 0.0, 1.0, 1.0],
+            "progress": [1.0, 0.5, 1.0, 0.5, 1.0, 0.0, 1.0, 1.0],
+        }
+    )
     ranking = leaderboard.rank_policies(episodes)
     assert list(ranking["policy"]) == ["d", "a", "b", "c"] and list(ranking["rank"]) == [1, 2, 2, 4]
     assert math.isnan(ranking["score_fail"][0]) and list(ranking["score_fail"][1:]) == [0.5, 0.5, 0.0]
@@ -230,11 +237,15 @@ def test_correlation_on_known_data():
 @pytest.mark.slow
 def test_sim_to_real_section_plot_and_cli(tmp_path, capsys):
     rates = {"alpha": 0.85, "beta": 0.6, "gamma": 0.4, "delta": 0.15}
-    folders = [write_synthetic_run(tmp_path / name, name, TASKS, 6, rate, seed=i)
-               for i, (name, rate) in enumerate(rates.items())]  # fmt: skip
+    folders = [
+        write_synthetic_run(tmp_path / name, name, TASKS, 6, rate, seed=i)
+        for i, (name, rate) in enumerate(rates.items())
+    ]
     real = tmp_path / "real.csv"
-    real.write_text("policy,success,episodes,notes\nalpha,70%,20,lab A\nbeta,0.55,20,\ngamma,0.2,,\n"
-                    "delta,0.1,10,\nepsilon,0.5,10,not simulated\n")  # fmt: skip
+    real.write_text(
+        "policy,success,episodes,notes\nalpha,70%,20,lab A\nbeta,0.55,20,\ngamma,0.2,,\n"
+        "delta,0.1,10,\nepsilon,0.5,10,not simulated\n"
+    )
     out = tmp_path / "site"
     assert robolab(["leaderboard", *map(str, folders), "--out", str(out), "--real-world", str(real)]) == 0
     printed = capsys.readouterr().out
@@ -253,22 +264,28 @@ def test_sim_to_real_section_plot_and_cli(tmp_path, capsys):
     assert "needs at least 3" in (out / "leaderboard.md").read_text()
 
 
-@pytest.mark.parametrize(("content", "expected"), [
-    (None, "no such file"),
-    ("", "the file is empty"),
-    ("name,success\nalpha,0.5\n", "no column 'policy'"),
-    ("policy,sucess\nalpha,0.5\n", "no column 'success'.*Did you mean 'sucess'"),
-    ("policy,success\n", "a header but no rows"),
-    ("policy,success\nalpha,0.5\nbeta\n", r"row 2 \(line 3\): 1 fields where the header has 2"),
-    ("policy,success\nalpha,high\n", r"row 1 \(line 2\), column 'success': 'high' is not a number"),
-    ("policy,success\nalpha,45\n", "column 'success': 45 is outside 0..1.*percentage with its sign"),
-    ("policy,success\nalpha,120%\n", "column 'success': 120% is outside 0..100"),
-    ("policy,success\nalpha,nan\n", "not a finite number"),
-    ("policy,success\n,0.5\n", "column 'policy': empty"),
-    ("policy,success\nalpha,0.5\n\nalpha,0.6\n", r"row 2 \(line 4\), column 'policy': 'alpha' already given on line 2"),
-    ("policy,success,episodes\nalpha,0.5,ten\n", "column 'episodes': 'ten' is not a whole number"),
-    ("policy,success,policy\nalpha,0.5,b\n", "column 'policy' appears twice"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("content", "expected"),
+    [
+        (None, "no such file"),
+        ("", "the file is empty"),
+        ("name,success\nalpha,0.5\n", "no column 'policy'"),
+        ("policy,sucess\nalpha,0.5\n", "no column 'success'.*Did you mean 'sucess'"),
+        ("policy,success\n", "a header but no rows"),
+        ("policy,success\nalpha,0.5\nbeta\n", r"row 2 \(line 3\): 1 fields where the header has 2"),
+        ("policy,success\nalpha,high\n", r"row 1 \(line 2\), column 'success': 'high' is not a number"),
+        ("policy,success\nalpha,45\n", "column 'success': 45 is outside 0..1.*percentage with its sign"),
+        ("policy,success\nalpha,120%\n", "column 'success': 120% is outside 0..100"),
+        ("policy,success\nalpha,nan\n", "not a finite number"),
+        ("policy,success\n,0.5\n", "column 'policy': empty"),
+        (
+            "policy,success\nalpha,0.5\n\nalpha,0.6\n",
+            r"row 2 \(line 4\), column 'policy': 'alpha' already given on line 2",
+        ),
+        ("policy,success,episodes\nalpha,0.5,ten\n", "column 'episodes': 'ten' is not a whole number"),
+        ("policy,success,policy\nalpha,0.5,b\n", "column 'policy' appears twice"),
+    ],
+)
 def test_real_world_csv_errors_name_file_row_and_column(tmp_path, content, expected):
     path = tmp_path / "real_world.csv"
     if content is not None:

@@ -60,24 +60,66 @@ def stats_file(tmp_path_factory) -> Path:
 WITH_CHECKOUT = {**os.environ, "PYTHONPATH": str(ROOT)}
 # the two ways to start it: as a module with this checkout on PYTHONPATH, or as a script file that finds its checkout
 SERVER_MODULE = (["-m", "robolab_ms.policies.lerobot_server"], WITH_CHECKOUT)
-SERVER_SCRIPT = ([str(ROOT / "robolab_ms" / "policies" / "lerobot_server.py")],
-                 {key: value for key, value in os.environ.items() if key != "PYTHONPATH"})  # fmt: skip
+SERVER_SCRIPT = (
+    [str(ROOT / "robolab_ms" / "policies" / "lerobot_server.py")],
+    {key: value for key, value in os.environ.items() if key != "PYTHONPATH"},
+)
 
 
 def _serve(python: str, how: tuple[list[str], dict], tmp: Path, *options: str) -> tuple[ServerProcess, int]:
     start, env = how
-    server = ServerProcess([python, *start, "--host", "127.0.0.1", "--port", "0", "--device", "cpu",
-                            "--log-inputs", str(tmp / "inputs.json"), "--log-actions", str(tmp / "replies.jsonl"),
-                            *options], ready=READY, timeout=300, env=env)  # fmt: skip
+    server = ServerProcess(
+        [
+            python,
+            *start,
+            "--host",
+            "127.0.0.1",
+            "--port",
+            "0",
+            "--device",
+            "cpu",
+            "--log-inputs",
+            str(tmp / "inputs.json"),
+            "--log-actions",
+            str(tmp / "replies.jsonl"),
+            *options,
+        ],
+        ready=READY,
+        timeout=300,
+        env=env,
+    )
     port = int(server.lines[-1].split("ws://127.0.0.1:")[1].split(",")[0])
     return server, port
 
 
 def _evaluate(port: int, out: Path, episodes: int) -> list[dict]:
-    run = subprocess.run([*ROBOLAB, "eval", "--policy", "openpi", "--host", "127.0.0.1", "--port", str(port),
-                          "--task", "BananaInBowl", "--episodes", str(episodes), "--max-steps", str(MAX_STEPS),
-                          "--open-loop-horizon", str(OPEN_LOOP), "--save-actions", "--quiet", "--out", str(out)],
-                         capture_output=True, text=True, timeout=600)  # fmt: skip
+    run = subprocess.run(
+        [
+            *ROBOLAB,
+            "eval",
+            "--policy",
+            "openpi",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--task",
+            "BananaInBowl",
+            "--episodes",
+            str(episodes),
+            "--max-steps",
+            str(MAX_STEPS),
+            "--open-loop-horizon",
+            str(OPEN_LOOP),
+            "--save-actions",
+            "--quiet",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert run.returncode == 0, run.stderr[-4000:]
     return [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
 
@@ -95,8 +137,11 @@ def _check_inputs(tmp: Path, image_shape: list[int], instruction: str) -> None:
     assert state["shape"] == [1, 8] and state["dtype"] == "float32"
     assert min(ARM_LOWER) <= state["min"] and state["max"] <= max(ARM_UPPER) and state["min"] < state["max"]
     assert batch["task"] == [instruction]
-    assert logged["inputs"] == {CAMERAS[0]: "exterior_image_1_left", CAMERAS[1]: "wrist_image_left",
-                                "observation.state": "joint_position+gripper_position"}  # fmt: skip
+    assert logged["inputs"] == {
+        CAMERAS[0]: "exterior_image_1_left",
+        CAMERAS[1]: "wrist_image_left",
+        "observation.state": "joint_position+gripper_position",
+    }
 
 
 def _check_executed(tmp: Path, out: Path, results: list[dict], policy: str, chunk: int) -> None:
@@ -115,8 +160,13 @@ def _check_executed(tmp: Path, out: Path, results: list[dict], policy: str, chun
             np.testing.assert_array_equal(actions, raw.astype(np.float32))  # 8-D policy: mapped one to one
             # un-normalized by the post-processor with the statistics: around their mean, far from N(0, 1)
             assert np.all(np.abs(raw - np.array(ACTION_MEAN)) < 0.1)
-        saved = np.load(out / "actions" / "openpi" / "BananaInBowl" /
-                        f"{row['instruction_variant']}-{row['robot']}-seed{row['seed']}.npy")  # fmt: skip
+        saved = np.load(
+            out
+            / "actions"
+            / "openpi"
+            / "BananaInBowl"
+            / f"{row['instruction_variant']}-{row['robot']}-seed{row['seed']}.npy"
+        )
         expected = np.concatenate([np.array(reply["actions"], np.float32)[:OPEN_LOOP] for reply in sent])
         np.testing.assert_allclose(saved, expected, atol=1e-6)
 
@@ -124,16 +174,39 @@ def _check_executed(tmp: Path, out: Path, results: list[dict], policy: str, chun
 ACT_CHECKPOINT = ["--policy-type", "act", "--image-size", "180,320", "--set", "pretrained_backbone_weights=null",
                   "--set", "chunk_size=20", "--set", "n_action_steps=20", "--set", "dim_model=128",
                   "--set", "dim_feedforward=512"]  # fmt: skip
-DIFFUSION = ["--policy-type", "diffusion", "--image-size", "96,96", "--set", "num_inference_steps=2",
-             "--set", "down_dims=[64,128]", "--set", "horizon=16", "--set", "n_action_steps=8"]  # fmt: skip
+DIFFUSION = [
+    "--policy-type",
+    "diffusion",
+    "--image-size",
+    "96,96",
+    "--set",
+    "num_inference_steps=2",
+    "--set",
+    "down_dims=[64,128]",
+    "--set",
+    "horizon=16",
+    "--set",
+    "n_action_steps=8",
+]
 
 
 def _act_from_checkpoint(python: str, tmp: Path, stats: Path) -> list[dict]:
     """ACT saved as LeRobot saves a trained policy, served with --checkpoint (as a module), evaluated."""
     checkpoint = tmp / "act_checkpoint"
-    made = subprocess.run([python, str(ROOT / "tests" / "lerobot_checkpoint.py"), *ACT_CHECKPOINT,
-                           "--out", str(checkpoint), "--stats", str(stats)],
-                          capture_output=True, text=True, timeout=600)  # fmt: skip
+    made = subprocess.run(
+        [
+            python,
+            str(ROOT / "tests" / "lerobot_checkpoint.py"),
+            *ACT_CHECKPOINT,
+            "--out",
+            str(checkpoint),
+            "--stats",
+            str(stats),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert made.returncode == 0, made.stderr[-4000:]
     server, port = _serve(python, SERVER_MODULE, tmp, "--checkpoint", str(checkpoint))
     try:
@@ -193,8 +266,9 @@ np.save(f"{sys.argv[1]}/padded.npy", padded)
 
 
 def test_padded_image_is_fitted_to_the_feature_keeping_its_aspect(lerobot_python, tmp_path):
-    run = subprocess.run([lerobot_python, "-c", RESIZE, str(tmp_path)], capture_output=True, text=True,
-                         timeout=300, env=WITH_CHECKOUT)  # fmt: skip
+    run = subprocess.run(
+        [lerobot_python, "-c", RESIZE, str(tmp_path)], capture_output=True, text=True, timeout=300, env=WITH_CHECKOUT
+    )
     assert run.returncode == 0, run.stderr[-4000:]
     wide = np.load(tmp_path / "180x320.npy")
     assert wide.shape == (1, 3, 180, 320) and wide.dtype == np.float32
@@ -209,8 +283,13 @@ def test_padded_image_is_fitted_to_the_feature_keeping_its_aspect(lerobot_python
 
 
 def test_bad_option_is_one_line_and_exit_2(lerobot_python, tmp_path):
-    run = subprocess.run([lerobot_python, *SERVER_MODULE[0], "--checkpoint", str(tmp_path / "missing")],
-                         capture_output=True, text=True, timeout=300, env=WITH_CHECKOUT)  # fmt: skip
+    run = subprocess.run(
+        [lerobot_python, *SERVER_MODULE[0], "--checkpoint", str(tmp_path / "missing")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=WITH_CHECKOUT,
+    )
     assert run.returncode == 2
     assert "Traceback" not in run.stderr and "no config.json there" in run.stderr
 

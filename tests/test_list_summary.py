@@ -28,8 +28,18 @@ FIXTURES = Path(__file__).parent / "fixtures" / "robolab120"
 PARKED_BELOW = -1.0  # m: RoboLab parks unused bodies far below the floor (as in test_robolab_layouts)
 
 # RoboLab-120 as RoboLab reports it (issue 15 and the reference facts).
-ROBOLAB_ATTRIBUTES = {"semantics": 60, "color": 26, "size": 6, "spatial": 29, "conjunction": 8, "counting": 7,
-                      "affordance": 12, "sorting": 12, "stacking": 6, "reorientation": 6}  # fmt: skip
+ROBOLAB_ATTRIBUTES = {
+    "semantics": 60,
+    "color": 26,
+    "size": 6,
+    "spatial": 29,
+    "conjunction": 8,
+    "counting": 7,
+    "affordance": 12,
+    "sorting": 12,
+    "stacking": 6,
+    "reorientation": 6,
+}
 ROBOLAB_AXES = {"visual": 84, "relational": 42, "procedural": 34}
 ROBOLAB_DIFFICULTY = {"simple": 64, "moderate": 39, "complex": 17}
 # Independent of the code under test: attribute -> axis, skill weights, as RoboLab defines them.
@@ -71,8 +81,10 @@ def test_robolab_facts_agree_with_the_reference_fixtures(theirs):
     """The package's copy of RoboLab's table equals the test fixtures' (tasks.csv: scene, subtasks, difficulty;
     scenes.csv: the bodies of each scene we ship, parked ones left out)."""
     with open(FIXTURES / "tasks.csv", newline="") as file:
-        table = {row["task"]: (row["scene"], int(row["num_subtasks"]), int(row["difficulty_score"]),
-                               row["difficulty_label"]) for row in csv.DictReader(file)}  # fmt: skip
+        table = {
+            row["task"]: (row["scene"], int(row["num_subtasks"]), int(row["difficulty_score"]), row["difficulty_label"])
+            for row in csv.DictReader(file)
+        }
     assert {t.name: (t.scene, t.subtasks, t.difficulty_score, t.difficulty) for t in theirs} == table
     with open(FIXTURES / "scenes.csv", newline="") as file:
         bodies = Counter(row["scene"] for row in csv.DictReader(file) if float(row["z"]) > PARKED_BELOW)
@@ -106,8 +118,9 @@ def subtasks_from_yaml(task: dict) -> int:
 def test_our_side_equals_counts_from_the_task_files(ours):
     files = sorted(content_dir("tasks").glob("*.yaml"))
     tasks = [yaml.safe_load(path.read_text(encoding="utf-8")) for path in files]
-    scenes = {path.stem: yaml.safe_load(path.read_text(encoding="utf-8"))
-              for path in content_dir("scenes").glob("*.yaml")}  # fmt: skip
+    scenes = {
+        path.stem: yaml.safe_load(path.read_text(encoding="utf-8")) for path in content_dir("scenes").glob("*.yaml")
+    }
     attributes = Counter(a for task in tasks for a in task["attributes"] if a in AXIS)
     axes = Counter(axis for task in tasks for axis in {AXIS[a] for a in task["attributes"] if a in AXIS})
     difficulty = Counter()
@@ -125,7 +138,8 @@ def test_our_side_equals_counts_from_the_task_files(ours):
     assert section(counts, "difficulty") == dict(difficulty)
     assert section(counts, "episode_seconds") == dict(lengths)
     assert section(counts, "objects_per_task") == pytest.approx(
-        {"mean": sum(objects) / len(objects), "min": min(objects), "max": max(objects)})
+        {"mean": sum(objects) / len(objects), "min": min(objects), "max": max(objects)}
+    )
 
 
 def test_every_shared_task_has_robolabs_scene_length_attributes_and_difficulty(ours, theirs):
@@ -144,22 +158,32 @@ def test_the_summary_shows_missing_tasks_and_differences(theirs):
     """Two of RoboLab's tasks, one of them changed and one left out: the rows, the missing task and the
     differing fields come out."""
     banana, plate = (next(t for t in theirs if t.name == name) for name in ("BananaInBowl", "BananaOnPlate"))
-    changed = type(banana)(**{**banana.__dict__, "attributes": ("semantics", "spatial"), "difficulty_score": 2,
-                              "objects": banana.objects + 1})  # fmt: skip
+    changed = type(banana)(
+        **{
+            **banana.__dict__,
+            "attributes": ("semantics", "spatial"),
+            "difficulty_score": 2,
+            "objects": banana.objects + 1,
+        }
+    )
     summary = summarize([changed], [banana, plate])
     rows = {(row.section, row.item): row for row in summary.rows}
     assert (rows[("benchmark", "tasks")].ours, rows[("benchmark", "tasks")].robolab) == (1, 2)
     assert rows[("attribute", "spatial")].difference == 1 and rows[("axis", "relational")].robolab == 0
     assert summary.missing == ("BananaOnPlate",) and summary.extra == ()
     assert {(task, key) for task, key, _, _ in summary.task_differences} == {
-        ("BananaInBowl", "attributes"), ("BananaInBowl", "difficulty"), ("BananaInBowl", "objects")}
+        ("BananaInBowl", "attributes"),
+        ("BananaInBowl", "difficulty"),
+        ("BananaInBowl", "objects"),
+    }
     assert len(select_facts(theirs, tags=["relational"])) == 42
     assert len(select_facts(theirs, names=["BananaInBowl", "Nope"], difficulties=["simple"])) == 1
 
 
 def run_list(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "robolab_ms.cli", "list", *args], capture_output=True, text=True,
-                          timeout=300)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", "robolab_ms.cli", "list", *args], capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.mark.slow

@@ -34,8 +34,13 @@ TIMEOUT_S = 600
 
 def start(*args: str) -> subprocess.Popen:
     """`python -m ...` as a process, its output captured."""
-    return subprocess.Popen([sys.executable, "-m", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "TQDM_DISABLE": "1"})  # fmt: skip
+    return subprocess.Popen(
+        [sys.executable, "-m", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TQDM_DISABLE": "1"},
+    )
 
 
 def finish(process: subprocess.Popen) -> tuple[int, str, str]:
@@ -75,8 +80,26 @@ def test_demo_random_action_runs_a_whole_episode_with_and_without_a_renderer():
 def recordings(tmp_path_factory) -> dict[str, Path]:
     """One short random episode recorded by `robolab eval --record`, one by ManiSkill's RecordEpisode wrapper."""
     out = tmp_path_factory.mktemp("robolab_eval")
-    assert main(["eval", "--policy", "random", "--task", "BananaInBowl", "--episodes", "1", "--max-steps", str(STEPS),
-                 "--record", "--out", str(out), "--quiet"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "eval",
+                "--policy",
+                "random",
+                "--task",
+                "BananaInBowl",
+                "--episodes",
+                "1",
+                "--max-steps",
+                str(STEPS),
+                "--record",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     (robolab_file,) = (out / "recordings" / "BananaInBowl").glob("*.h5")
     folder = tmp_path_factory.mktemp("record_episode")
     env = gym.make(ENV_ID, obs_mode="state", render_backend="none", max_episode_steps=STEPS)
@@ -113,8 +136,16 @@ def replays(recordings, tmp_path_factory) -> dict[tuple[str, str], tuple[Path, P
             copy = folder / recorded.name
             shutil.copy(recorded, copy)
             shutil.copy(recorded.with_suffix(".json"), copy.with_suffix(".json"))
-            process = start("mani_skill.trajectory.replay_trajectory", "--traj-path", str(copy), *flags, "-o", "state",
-                            "--save-traj", "--allow-failure")  # fmt: skip
+            process = start(
+                "mani_skill.trajectory.replay_trajectory",
+                "--traj-path",
+                str(copy),
+                *flags,
+                "-o",
+                "state",
+                "--save-traj",
+                "--allow-failure",
+            )
             started[(source, mode)] = (copy, process)
     done = {}
     for key, (copy, process) in started.items():
@@ -187,8 +218,10 @@ def test_check_env_treats_our_env_as_it_treats_pickcube():
     for env_id in ("PickCube-v1", ENV_ID):
         env = gym.make(env_id, obs_mode="state", render_backend="none")
         try:
-            results[env_id] = {"raw": _check_results(env.unwrapped),
-                               "CPUGymWrapper": _check_results(CPUGymWrapper(env))}
+            results[env_id] = {
+                "raw": _check_results(env.unwrapped),
+                "CPUGymWrapper": _check_results(CPUGymWrapper(env)),
+            }
         finally:
             env.close()
     assert results[ENV_ID] == results["PickCube-v1"]

@@ -47,8 +47,12 @@ def continuous_sparc(speed_of_tau, threshold: float = 0.05) -> float:
 
 def arc(frequency: np.ndarray, magnitude: np.ndarray, cutoff: float) -> float:
     """Minus the arc length of a spectrum, frequency divided by the cutoff (the definition, written out)."""
-    return -float(sum(math.sqrt(((f1 - f0) / cutoff) ** 2 + (m1 - m0) ** 2)
-                      for f0, f1, m0, m1 in zip(frequency, frequency[1:], magnitude, magnitude[1:])))  # fmt: skip
+    return -float(
+        sum(
+            math.sqrt(((f1 - f0) / cutoff) ** 2 + (m1 - m0) ** 2)
+            for f0, f1, m0, m1 in zip(frequency, frequency[1:], magnitude, magnitude[1:])
+        )
+    )
 
 
 def test_sparc_of_two_equal_samples_from_the_closed_form_spectrum():
@@ -178,8 +182,12 @@ def test_joint_metrics_use_the_measured_velocities_and_leave_a_motionless_joint_
 def test_trajectory_metrics_need_three_samples_and_motion():
     short = trajectory_metrics(np.array([[0.0, 0, 0], [0.1, 0, 0]]), np.zeros((2, 7)), np.zeros((1, 7)), DT)
     assert set(short) == set(METRIC_KEYS) and all(math.isnan(value) for value in short.values())
-    still = trajectory_metrics(np.tile([0.4, 0.0, 0.3], (20, 1)), np.tile(np.linspace(-1, 1, 7), (20, 1)),
-                               np.tile(np.linspace(-1, 1, 7), (19, 1)), DT)  # fmt: skip
+    still = trajectory_metrics(
+        np.tile([0.4, 0.0, 0.3], (20, 1)),
+        np.tile(np.linspace(-1, 1, 7), (20, 1)),
+        np.tile(np.linspace(-1, 1, 7), (19, 1)),
+        DT,
+    )
     assert math.isnan(still["ee_sparc"]) and math.isnan(still["joint_sparc_mean"])
     assert still["ee_path_length"] == 0.0 and still["ee_speed_max"] == 0.0 and still["ee_isj"] == 0.0
 
@@ -209,11 +217,25 @@ OLD_LINE = {  # a result line written before metrics and tallies existed
 def result(seed: int, success: bool, sparc_value: float | None, bumps: int) -> EpisodeResult:
     events = [{"step": i + 1, "type": "object_bumped", "object": "apple"} for i in range(bumps)]
     counts, objects = event_tallies(events)
-    return EpisodeResult(task="BananaInBowl", instruction_variant="default", instruction="x", robot="droid",
-                         policy="random", seed=seed, success=success, score=float(success), progress=float(success),
-                         steps=5, max_steps=5, success_step=None, wall_seconds=1.0, events=events,
-                         metrics={"ee_sparc": sparc_value, "ee_speed_mean": 0.05}, event_counts=counts,
-                         event_objects=objects)  # fmt: skip
+    return EpisodeResult(
+        task="BananaInBowl",
+        instruction_variant="default",
+        instruction="x",
+        robot="droid",
+        policy="random",
+        seed=seed,
+        success=success,
+        score=float(success),
+        progress=float(success),
+        steps=5,
+        max_steps=5,
+        success_step=None,
+        wall_seconds=1.0,
+        events=events,
+        metrics={"ee_sparc": sparc_value, "ee_speed_mean": 0.05},
+        event_counts=counts,
+        event_objects=objects,
+    )
 
 
 def test_old_result_lines_still_load_and_summarise(tmp_path):
@@ -240,9 +262,17 @@ def test_version_1_metrics_load_as_the_old_variant_and_never_mix_with_robolabs(t
     append_result(tmp_path, result(1, True, -1.5, 0))  # a line of this version
     old, new = sorted(read_results(tmp_path), key=lambda r: r.seed, reverse=True)
     assert old.version == 1 and new.version == 2
-    assert old.metrics == {"ee_sparc_v1": -4.2, "joint_sparc_v1": -3.0, "ee_jerk_v1": 12.0, "joint_jerk_v1": 30.0,
-                           "ee_path_length_v1": 0.8, "ee_speed_mean_v1": 0.1, "ee_speed_max_v1": 0.3,
-                           "joint_tracking_rmse_v1": 0.02, "joint_tracking_max": 0.05}  # fmt: skip
+    assert old.metrics == {
+        "ee_sparc_v1": -4.2,
+        "joint_sparc_v1": -3.0,
+        "ee_jerk_v1": 12.0,
+        "joint_jerk_v1": 30.0,
+        "ee_path_length_v1": 0.8,
+        "ee_speed_mean_v1": 0.1,
+        "ee_speed_max_v1": 0.3,
+        "joint_tracking_rmse_v1": 0.02,
+        "joint_tracking_max": 0.05,
+    }
     table = summarize([old, new])
     row = table[table["task"] == "BananaInBowl"].iloc[0]
     assert row["ee_sparc"] == -1.5 and row["ee_sparc_v1"] == -4.2  # each from its own episode
@@ -271,8 +301,7 @@ def test_adaptive_sampling_stops_at_the_interval_width_at_least_ten_and_at_most_
     assert adaptive_sampling_done(0, 10, 400, 0.30)  # 0/10: [0.2 %, 28.5 %], narrower than 0.30
     assert adaptive_sampling_done(5, 11, 11, 0.01)  # the maximum ends it whatever the width
     for successes_rate in (0.0, 0.3, 0.5):
-        stop = next(n for n in range(1, 500)
-                    if adaptive_sampling_done(round(successes_rate * n), n, 1000, 0.14))  # fmt: skip
+        stop = next(n for n in range(1, 500) if adaptive_sampling_done(round(successes_rate * n), n, 1000, 0.14))
         low, high = success_interval(round(successes_rate * stop), stop)
         assert high - low <= 0.14 and stop >= 10
         low, high = success_interval(round(successes_rate * (stop - 1)), stop - 1)
@@ -288,12 +317,16 @@ def test_task_filters_select_by_tag_axis_difficulty_and_scene():
     names = lambda chosen: {spec.name for spec in chosen}  # noqa: E731
     assert names(filter_tasks(specs, tags=["spatial"])) == {s.name for s in specs if "spatial" in s.attributes}
     assert names(filter_tasks(specs, tags=["procedural"])) == {
-        s.name for s in specs if {"affordance", "reorientation", "stacking", "sorting"} & set(s.attributes)}
+        s.name for s in specs if {"affordance", "reorientation", "stacking", "sorting"} & set(s.attributes)
+    }
     complex_spatial = filter_tasks(specs, tags=["spatial", "stacking"], difficulties=["complex"])
-    assert names(complex_spatial) == {s.name for s in specs if s.difficulty == "complex"
-                                      and {"spatial", "stacking"} & set(s.attributes)}  # fmt: skip
+    assert names(complex_spatial) == {
+        s.name for s in specs if s.difficulty == "complex" and {"spatial", "stacking"} & set(s.attributes)
+    }
     assert names(filter_tasks(specs, scenes=["colored_blocks"])) == {
-        "BlockStackingOrderAgnostic", "BlockStackingSpecifiedOrder"}
+        "BlockStackingOrderAgnostic",
+        "BlockStackingSpecifiedOrder",
+    }
     assert "BlockStackingSpecifiedOrder" in names(filter_tasks(specs, tags=["stacking"]))
     with pytest.raises(UnknownNameError, match="spatial"):
         filter_tasks(specs, tags=["spatail"])

@@ -75,8 +75,16 @@ def test_every_variation_axis_without_renderer():
     try:
         first = _states(env, 5, 3)
         fields = env.unwrapped.variation_params
-        for key in ("light_intensity", "background", "table_material", "cam_wrist_dx", "image_noise_std",
-                    "distractor_banana_color", "obj_bowl_dx", "robot_joint1_offset"):  # fmt: skip
+        for key in (
+            "light_intensity",
+            "background",
+            "table_material",
+            "cam_wrist_dx",
+            "image_noise_std",
+            "distractor_banana_color",
+            "obj_bowl_dx",
+            "robot_joint1_offset",
+        ):
             assert key in fields, f"{key} not drawn without a renderer"
         again = _states(env, 5, 3)
         assert env.unwrapped.variation_params == fields

@@ -16,8 +16,9 @@ from robolab_ms.policies.oracle import OracleFailure
 
 
 def test_oracle_solves_banana_in_bowl_through_the_runner(tmp_path):
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("BananaInBowl",), episodes=2), tmp_path,
-                             show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"), EvalConfig(tasks=("BananaInBowl",), episodes=2), tmp_path, show_progress=False
+    )
     assert [r.error for r in results] == [None, None]
     assert all(r.success and r.score == 1.0 for r in results)
     assert all(r.success_step < 200 for r in results)  # it plans, it does not wander
@@ -27,8 +28,9 @@ def test_oracle_solves_banana_in_bowl_through_the_runner(tmp_path):
 def test_oracle_lifts_and_sets_two_objects_side_by_side(task, tmp_path):
     """A picked_up condition (a lift, nowhere to put it) and two bagels on one plate (each needs its own free spot:
     the second one set down on the first does not rest on the plate)."""
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=(task,), episodes=1), tmp_path,
-                             show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"), EvalConfig(tasks=(task,), episodes=1), tmp_path, show_progress=False
+    )
     assert results[0].error is None and results[0].success
 
 
@@ -53,8 +55,9 @@ def test_oracle_holds_a_mug_too_wide_for_the_fingers_by_its_wall(tmp_path):
         assert radius - 0.015 < np.linalg.norm(grasp[:2] - centre) < radius  # over the wall, not the middle
     finally:
         env.close()
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("RedDishesInBin",), episodes=1), tmp_path,
-                             show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"), EvalConfig(tasks=("RedDishesInBin",), episodes=1), tmp_path, show_progress=False
+    )
     assert results[0].error is None and results[0].success
 
 
@@ -158,8 +161,9 @@ def test_oracle_takes_objects_out_of_a_bin_to_separate_free_spots(tmp_path):
     env.close()
     assert len(spots) == 2 and spots[0] != spots[1]
     assert all(abs(x - crate[0]) > 0.17 or abs(y - crate[1]) > 0.12 for x, y in spots), (spots, crate)  # off the crate
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("BananasOutOfBin",), episodes=1), tmp_path,
-                             show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"), EvalConfig(tasks=("BananasOutOfBin",), episodes=1), tmp_path, show_progress=False
+    )
     assert results[0].error is None and results[0].success, results[0]
 
 
@@ -189,8 +193,9 @@ def test_oracle_stands_a_lying_jug_up_by_its_neck(tmp_path):
     centre = env.eval_context.centre("utilityjug_a02")[0].numpy()
     env.close()
     assert grasp is not None and (grasp[:2] - centre[:2]) @ up[:2] > 0.1  # at the neck, 11 cm or more off the middle
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("ReorientJug",), episodes=1), tmp_path,
-                             show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"), EvalConfig(tasks=("ReorientJug",), episodes=1), tmp_path, show_progress=False
+    )
     assert results[0].error is None and results[0].success, results[0]
 
 
@@ -250,8 +255,9 @@ def test_a_square_box_turned_diagonally_is_closed_on_across_its_faces():
     chosen = _fitting_direction(carton, diagonal)
     assert np.ptp(carton[:, :2] @ chosen) == pytest.approx(2 * half, abs=0.002)
     narrow = np.array([0.0, 0.02, 0.0])  # a part that fits as it is keeps its direction
-    assert np.array_equal(_fitting_direction(corners[:, :] * [1.0, 0.2, 1.0] + narrow, np.array([0.0, 1.0])),
-                          np.array([0.0, 1.0]))
+    assert np.array_equal(
+        _fitting_direction(corners[:, :] * [1.0, 0.2, 1.0] + narrow, np.array([0.0, 1.0])), np.array([0.0, 1.0])
+    )
 
 
 def test_oracle_comes_in_under_an_overhang_and_holds_a_cup_by_its_handle(tmp_path):
@@ -282,8 +288,12 @@ def test_oracle_comes_in_under_an_overhang_and_holds_a_cup_by_its_handle(tmp_pat
     assert off_middle < 0.005 and stepping_in
     off_middle, _ = grasp_off_middle("TakeMeasuringSpoonOut", 0, "measuring_cup")
     assert off_middle > 0.05  # out on the handle, not at the cup's wall
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("SmartphoneInBin", "TakeMeasuringSpoonOut"),
-                             episodes=1, first_seed=2), tmp_path, show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"),
+        EvalConfig(tasks=("SmartphoneInBin", "TakeMeasuringSpoonOut"), episodes=1, first_seed=2),
+        tmp_path,
+        show_progress=False,
+    )
     assert [r.error for r in results] == [None, None] and all(r.success for r in results)
 
 
@@ -398,8 +408,12 @@ def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path)
     from robolab_ms.policies.oracle import FINGER_HALF_WIDTH, MAX_GRASP_WIDTH, _world_points, grasp_pose
     from robolab_ms.policies.oracle_chord import round_section
 
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("FoodPacking2Cans",), episodes=1, first_seed=2),
-                             tmp_path, show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"),
+        EvalConfig(tasks=("FoodPacking2Cans",), episodes=1, first_seed=2),
+        tmp_path,
+        show_progress=False,
+    )
     assert results[0].error is None and results[0].success
 
     import gymnasium as gym
@@ -424,8 +438,12 @@ def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path)
 def test_oracle_leaves_room_for_the_second_carton_on_a_small_box_top(tmp_path):
     """Two cartons onto a closed box's 16-cm top: the standing milk carton set in the middle leaves the lying
     juice carton no room (it is knocked off or falls); spots planned together put both on (seed 9 failed so)."""
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("RecycleCartonsOnBox",), episodes=1,
-                                                               first_seed=9), tmp_path, show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"),
+        EvalConfig(tasks=("RecycleCartonsOnBox",), episodes=1, first_seed=9),
+        tmp_path,
+        show_progress=False,
+    )
     assert results[0].error is None and results[0].success
 
 
@@ -441,8 +459,9 @@ def test_all_fruits_go_onto_the_plate_largest_first_and_three_of_them_in_task_or
         orders[task] = [job.obj for job in jobs_for(env)]
         env.close()
     assert orders["FruitsOnPlate"][0] == "pomegranate01"  # the largest, while the plate is still empty
-    assert sorted(orders["FruitsOnPlate"]) == sorted(["lemon_01", "lemon_02", "lime01", "lime01_01", "orange_01",
-                                                      "orange_02", "pomegranate01"])  # fmt: skip
+    assert sorted(orders["FruitsOnPlate"]) == sorted(
+        ["lemon_01", "lemon_02", "lime01", "lime01_01", "orange_01", "orange_02", "pomegranate01"]
+    )
     assert orders["FruitsOnPlate3"] == ["lemon_01", "lemon_02", "lime01"]  # three of seven: as the task lists them
 
 
@@ -452,9 +471,9 @@ def test_a_wooden_spoon_beside_oranges_is_grasped_with_its_handle_between_the_pa
     the fingers centred and clear of both fingers, and the oracle puts the spoon in the bowl."""
     import gymnasium as gym
 
+    from robolab_ms.catalog.procedural import quat_to_matrix
     from robolab_ms.policies.oracle import OPEN_FINGER_GAP, _footprint_points, _world_points, grasp_pose
     from robolab_ms.policies.oracle_centred import band_offset
-    from robolab_ms.catalog.procedural import quat_to_matrix
     from robolab_ms.tasks.spec import load_task
 
     env = gym.make(load_task("WoodSpatulaToBowl").env_id, obs_mode="state_dict")
@@ -467,8 +486,12 @@ def test_a_wooden_spoon_beside_oranges_is_grasped_with_its_handle_between_the_pa
         assert abs(offset) < 0.01 and abs(offset) + width / 2 < OPEN_FINGER_GAP / 2
     finally:
         env.close()
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("WoodSpatulaToBowl",), episodes=1, first_seed=2),
-                             tmp_path, show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"),
+        EvalConfig(tasks=("WoodSpatulaToBowl",), episodes=1, first_seed=2),
+        tmp_path,
+        show_progress=False,
+    )
     assert results[0].error is None and results[0].success
 
 
@@ -476,7 +499,11 @@ def test_oracle_reaches_past_a_crate_wall_without_catching_its_rim(tmp_path):
     """After dropping the milk carton into the crate, the joint path to the lying juice carton sagged below the
     straight line the oracle checked, an open finger caught the crate's rim and pulled the crate over onto the juice
     carton (seed 4 failed so); the real path is checked, and the hand goes over high and comes straight down."""
-    results = run_evaluation(make_policy("oracle"), EvalConfig(tasks=("RecycleCarton",), episodes=1, first_seed=4),
-                             tmp_path, show_progress=False)  # fmt: skip
+    results = run_evaluation(
+        make_policy("oracle"),
+        EvalConfig(tasks=("RecycleCarton",), episodes=1, first_seed=4),
+        tmp_path,
+        show_progress=False,
+    )
     assert results[0].error is None and results[0].success
     assert not any(event["type"] == "object_tipped_over" for event in results[0].events)

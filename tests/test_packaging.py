@@ -10,8 +10,22 @@ import pytest
 @pytest.fixture(scope="module")
 def wheel_names(tmp_path_factory):
     out = tmp_path_factory.mktemp("wheel")
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--quiet", "--no-deps", "--no-build-isolation",
-                    "--wheel-dir", str(out), "."], check=True, timeout=300)  # fmt: skip
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--wheel-dir",
+            str(out),
+            ".",
+        ],
+        check=True,
+        timeout=300,
+    )
     (wheel,) = out.glob("robolab_ms-*.whl")
     return zipfile.ZipFile(wheel).namelist()
 
@@ -22,8 +36,13 @@ def test_one_namespace_plus_the_startup_hook(wheel_names):
 
 
 def test_content_folders_ship_inside_the_package(wheel_names):
-    for expected in ("robolab_ms/task_specs/BananaInBowl.yaml", "robolab_ms/scene_builders/banana_bowl.yaml",
-                     "robolab_ms/assets/catalog.yaml", "robolab_ms/eval/runner.py", "robolab_ms/analysis/tables.py"):
+    for expected in (
+        "robolab_ms/task_specs/BananaInBowl.yaml",
+        "robolab_ms/scene_builders/banana_bowl.yaml",
+        "robolab_ms/assets/catalog.yaml",
+        "robolab_ms/eval/runner.py",
+        "robolab_ms/analysis/tables.py",
+    ):
         assert expected in wheel_names, expected
 
 
@@ -36,11 +55,29 @@ def test_regular_install_into_a_fresh_venv_works_like_the_checkout(tmp_path):
     fresh = tmp_path / "venv"
     venv.create(fresh, with_pip=False)
     python = fresh / "bin" / "python"
-    purelib = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                             capture_output=True, text=True, check=True).stdout.strip()  # fmt: skip
+    purelib = subprocess.run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
     (tmp_path / "venv" / purelib.split(str(fresh) + "/")[1] / "deps.pth").write_text(site.getsitepackages()[0] + "\n")
-    subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--quiet", "--no-deps",
-                    "--no-build-isolation", "."], check=True, timeout=300)  # fmt: skip
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "--python",
+            str(python),
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            ".",
+        ],
+        check=True,
+        timeout=300,
+    )
     code = (
         "import robolab_ms, mani_skill.envs, gymnasium as gym;"
         "from robolab_ms.tasks.spec import load_task;"

@@ -8,22 +8,20 @@ import os
 import random
 import subprocess
 import sys
-import time
 from dataclasses import asdict
 from pathlib import Path
 from types import SimpleNamespace
 
 import h5py
 import pytest
+from helpers import kill_run_with_workers
 from tqdm import tqdm
 
 from robolab_ms.errors import RoboLabError
-from robolab_ms.eval.schedule import Job, Schedule
 from robolab_ms.eval.results import EPISODES_FILE, TIMING_FIELDS, EpisodeResult, exclusive_writer, read_results
 from robolab_ms.eval.runner import EvalConfig, adaptive_sampling_done, run_evaluation
+from robolab_ms.eval.schedule import Job, Schedule
 from robolab_ms.policies import make_policy
-
-from helpers import kill_run_with_workers
 
 ROBOLAB = str(Path(sys.executable).with_name("robolab"))
 TESTS = Path(__file__).parent
@@ -55,8 +53,22 @@ def sequential(tmp_path_factory) -> dict[tuple, dict]:
 
 
 def eval_command(out: Path, *extra: str) -> list[str]:
-    return [ROBOLAB, "eval", "--policy", "random", "--task", *TASKS, "--episodes", str(EPISODES), "--max-steps",
-            str(MAX_STEPS), "--out", str(out), "--quiet", *extra]  # fmt: skip
+    return [
+        ROBOLAB,
+        "eval",
+        "--policy",
+        "random",
+        "--task",
+        *TASKS,
+        "--episodes",
+        str(EPISODES),
+        "--max-steps",
+        str(MAX_STEPS),
+        "--out",
+        str(out),
+        "--quiet",
+        *extra,
+    ]
 
 
 @pytest.mark.slow
@@ -65,8 +77,9 @@ def test_workers_killed_by_sigkill_mid_run_resume_with_every_episode_once(tmp_pa
     log = (tmp_path / "killed.log").open("w")
     process = subprocess.Popen(eval_command(out, "--workers", "2"), stdout=log, stderr=subprocess.STDOUT)
     episodes = out / EPISODES_FILE
-    kill_run_with_workers(process, lambda: len(complete_lines(out)) if episodes.exists() else 0, 3,
-                          tmp_path / "killed.log")  # fmt: skip
+    kill_run_with_workers(
+        process, lambda: len(complete_lines(out)) if episodes.exists() else 0, 3, tmp_path / "killed.log"
+    )
     written = len(complete_lines(out))
     assert 3 <= written < len(TASKS) * EPISODES
     with episodes.open("a", encoding="utf-8") as handle:  # as if the kill had come in the middle of a line
@@ -85,15 +98,39 @@ def test_workers_killed_by_sigkill_mid_run_resume_with_every_episode_once(tmp_pa
 @pytest.mark.slow
 def test_ray_actors_on_a_local_instance_stream_results_and_recordings_back(tmp_path, sequential):
     environment = {**os.environ, "RAY_AUTH_MODE": "disabled"}  # a test instance on 127.0.0.1: no tokens
-    head = subprocess.Popen([sys.executable, str(TESTS / "ray_head.py"), "2"], stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=environment)  # fmt: skip
+    head = subprocess.Popen(
+        [sys.executable, str(TESTS / "ray_head.py"), "2"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        env=environment,
+    )
     try:
         line = head.stdout.readline()
         assert line.startswith("ray-address "), f"the Ray instance did not start: {line!r}"
         address = line.split()[1]
         out = tmp_path / "ray"
-        command = [ROBOLAB, "eval", "--policy", "random", "--task", TASKS[0], "--episodes", "3", "--max-steps",
-                   str(MAX_STEPS), "--out", str(out), "--quiet", "--ray", address, "--workers", "2", "--record"]  # fmt: skip
+        command = [
+            ROBOLAB,
+            "eval",
+            "--policy",
+            "random",
+            "--task",
+            TASKS[0],
+            "--episodes",
+            "3",
+            "--max-steps",
+            str(MAX_STEPS),
+            "--out",
+            str(out),
+            "--quiet",
+            "--ray",
+            address,
+            "--workers",
+            "2",
+            "--record",
+        ]
         run = subprocess.run(command, capture_output=True, text=True, timeout=600, env=environment)
         assert run.returncode == 0, run.stdout + run.stderr
     finally:
@@ -120,9 +157,28 @@ def test_a_worker_that_cannot_reach_its_policy_server_stops_the_run_with_the_one
     from servers import free_port
 
     port = free_port()  # nothing listens there
-    run = subprocess.run([ROBOLAB, "eval", "--policy", "openpi", "--port", str(port), "--task", TASKS[0], "--episodes",
-                          "2", "--workers", "2", "--out", str(tmp_path), "--quiet"], capture_output=True, text=True,
-                         timeout=600)  # fmt: skip
+    run = subprocess.run(
+        [
+            ROBOLAB,
+            "eval",
+            "--policy",
+            "openpi",
+            "--port",
+            str(port),
+            "--task",
+            TASKS[0],
+            "--episodes",
+            "2",
+            "--workers",
+            "2",
+            "--out",
+            str(tmp_path),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert run.returncode == 2, run.stdout + run.stderr
     assert run.stderr.startswith(f"robolab: error: no openpi policy server answers at 127.0.0.1:{port}")
     assert "Traceback" not in run.stderr
@@ -153,9 +209,22 @@ def _fake_result(task: str, seed: int, success: bool, out: Path) -> EpisodeResul
     recording = f"recordings/{task}/default-droid-random-seed{seed}.h5"
     (out / recording).parent.mkdir(parents=True, exist_ok=True)
     (out / recording).write_bytes(b"h5")
-    return EpisodeResult(task=task, instruction_variant="default", instruction="-", robot="droid", policy="random",
-                         seed=seed, success=success, score=float(success), progress=0.0, steps=1, max_steps=1,
-                         success_step=None, wall_seconds=0.0, recording=recording)  # fmt: skip
+    return EpisodeResult(
+        task=task,
+        instruction_variant="default",
+        instruction="-",
+        robot="droid",
+        policy="random",
+        seed=seed,
+        success=success,
+        score=float(success),
+        progress=0.0,
+        steps=1,
+        max_steps=1,
+        success_step=None,
+        wall_seconds=0.0,
+        recording=recording,
+    )
 
 
 @pytest.mark.parametrize("workers", [2, 5])

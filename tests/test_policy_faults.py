@@ -7,7 +7,6 @@ import threading
 import time
 
 import pytest
-
 from servers import fault_server, free_port, robolab_serve
 
 from robolab_ms.eval.results import EPISODES_FILE, read_results
@@ -15,8 +14,15 @@ from robolab_ms.eval.runner import EvalConfig, run_evaluation
 from robolab_ms.policies import PolicyOptions, make_policy
 
 FAULTS = {0: "shape", 1: "nan", 3: "missing", 4: "dtype", 5: "inf", 6: "late", 7: "error", 8: "limits"}
-EXPECTED = {0: "shape (10, 7)", 1: "NaN", 3: "no 'actions'", 4: "dtype int64", 5: "infinity",
-            6: "did not answer within 1 s", 7: "failed on purpose"}  # fmt: skip
+EXPECTED = {
+    0: "shape (10, 7)",
+    1: "NaN",
+    3: "no 'actions'",
+    4: "dtype int64",
+    5: "infinity",
+    6: "did not answer within 1 s",
+    7: "failed on purpose",
+}
 
 
 def _lines(folder) -> list[dict]:
@@ -67,8 +73,9 @@ def test_server_killed_and_restarted_mid_run(tmp_path):
 
     def evaluate() -> None:
         try:
-            outcome["results"] = run_evaluation(make_policy("openpi", PolicyOptions(port=port)), config, tmp_path,
-                                                show_progress=False)  # fmt: skip
+            outcome["results"] = run_evaluation(
+                make_policy("openpi", PolicyOptions(port=port)), config, tmp_path, show_progress=False
+            )
         except BaseException as exc:  # reported by the assertion below
             outcome["error"] = exc
 

@@ -14,8 +14,14 @@ from robolab_ms.policies import PolicyOptions, PolicyUnavailableError, make_poli
 from robolab_ms.policies.gr00t import eef_9d
 
 FAULTS = {0: "shape", 1: "nan", 3: "missing", 4: "late", 5: "error", 6: "dtype"}
-EXPECTED = {0: "expected (1, H, 7)", 1: "NaN", 3: "no 'action.gripper_position'", 4: "did not answer within 1 s",
-            5: "failed on purpose", 6: "dtype int64"}  # fmt: skip
+EXPECTED = {
+    0: "expected (1, H, 7)",
+    1: "NaN",
+    3: "no 'action.gripper_position'",
+    4: "did not answer within 1 s",
+    5: "failed on purpose",
+    6: "dtype int64",
+}
 
 
 def test_eef_9d_is_position_and_droid_6d_rotation():
@@ -36,9 +42,12 @@ def test_gr00t_through_serve(tmp_path):
     port = free_port()
     server = robolab_serve("--protocol", "gr00t", "--policy", "hold", "--port", str(port), "--host", "127.0.0.1")
     try:
-        results = run_evaluation(make_policy("gr00t", PolicyOptions(port=port)),
-                                 EvalConfig(tasks=("BananaInBowl",), episodes=1, max_steps=10), tmp_path,
-                                 show_progress=False)  # fmt: skip
+        results = run_evaluation(
+            make_policy("gr00t", PolicyOptions(port=port)),
+            EvalConfig(tasks=("BananaInBowl",), episodes=1, max_steps=10),
+            tmp_path,
+            show_progress=False,
+        )
     finally:
         server.stop()
     (result,) = results
@@ -52,9 +61,12 @@ def test_gr00t_request_format_and_faults(tmp_path):
     port, log = free_port(), tmp_path / "requests.jsonl"
     server = fault_server("gr00t", port, FAULTS, log)
     try:
-        results = run_evaluation(make_policy("gr00t", PolicyOptions(port=port, timeout=1.0, gr00t_version="n1.5")),
-                                 EvalConfig(tasks=("BananaInBowl",), episodes=8, max_steps=3), tmp_path,
-                                 show_progress=False)  # fmt: skip
+        results = run_evaluation(
+            make_policy("gr00t", PolicyOptions(port=port, timeout=1.0, gr00t_version="n1.5")),
+            EvalConfig(tasks=("BananaInBowl",), episodes=8, max_steps=3),
+            tmp_path,
+            show_progress=False,
+        )
     finally:
         server.stop()
     by_seed = {r.seed: r for r in results}

@@ -24,8 +24,12 @@ def random_server():
 def test_no_server_is_one_paragraph_naming_the_address_and_exit_2(tmp_path):
     port = free_port()  # nothing listens there
     out = tmp_path / "run"
-    result = subprocess.run([*ROBOLAB, "eval", "--policy", "openpi", "--port", str(port), "--task", "BananaInBowl",
-                             "--out", str(out)], capture_output=True, text=True, timeout=600)  # fmt: skip
+    result = subprocess.run(
+        [*ROBOLAB, "eval", "--policy", "openpi", "--port", str(port), "--task", "BananaInBowl", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 2, result.stderr
     message = result.stderr.strip()
     assert "Traceback" not in message and "\n" not in message  # one paragraph
@@ -35,10 +39,16 @@ def test_no_server_is_one_paragraph_naming_the_address_and_exit_2(tmp_path):
 
 def _client_request(seed: int, step: int) -> dict:
     image = np.zeros((224, 224, 3), np.uint8)
-    return {"observation/exterior_image_1_left": image, "observation/wrist_image_left": image,
-            "observation/joint_position": np.zeros(7, np.float32),
-            "observation/gripper_position": np.zeros(1, np.float32), "prompt": "put the banana in the bowl",
-            "robolab/task": "BananaInBowl", "robolab/seed": seed, "robolab/step": step}  # fmt: skip
+    return {
+        "observation/exterior_image_1_left": image,
+        "observation/wrist_image_left": image,
+        "observation/joint_position": np.zeros(7, np.float32),
+        "observation/gripper_position": np.zeros(1, np.float32),
+        "prompt": "put the banana in the bowl",
+        "robolab/task": "BananaInBowl",
+        "robolab/seed": seed,
+        "robolab/step": step,
+    }
 
 
 @pytest.mark.filterwarnings("ignore:connect\\(\\) must be used as a context manager:DeprecationWarning")

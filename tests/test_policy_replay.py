@@ -33,16 +33,22 @@ def test_oracle_actions_replayed_through_serve_and_openpi_reproduce_the_episodes
     actions = np.load(actions_file(tmp_path / "oracle", "oracle", "PickGlasses", "default", "droid", 1))
     assert actions.dtype == np.float32 and actions.shape == (recorded[1].steps, 8)
 
-    in_process = run_evaluation(make_policy("replay", PolicyOptions(replay_from=tmp_path / "oracle")), CONFIG,
-                                tmp_path / "in_process", show_progress=False)  # fmt: skip
+    in_process = run_evaluation(
+        make_policy("replay", PolicyOptions(replay_from=tmp_path / "oracle")),
+        CONFIG,
+        tmp_path / "in_process",
+        show_progress=False,
+    )
     assert _outcomes(in_process) == _outcomes(recorded)
 
     port = free_port()
-    server = robolab_serve("--policy", "replay", "--replay-from", str(tmp_path / "oracle"), "--port", str(port),
-                           "--host", "127.0.0.1")  # fmt: skip
+    server = robolab_serve(
+        "--policy", "replay", "--replay-from", str(tmp_path / "oracle"), "--port", str(port), "--host", "127.0.0.1"
+    )
     try:
-        remote = run_evaluation(make_policy("openpi", PolicyOptions(port=port)), CONFIG, tmp_path / "remote",
-                                show_progress=False)  # fmt: skip
+        remote = run_evaluation(
+            make_policy("openpi", PolicyOptions(port=port)), CONFIG, tmp_path / "remote", show_progress=False
+        )
     finally:
         server.stop()
     assert all(r.policy_metadata.get("policy") == "replay" for r in remote)

@@ -6,8 +6,8 @@ import pytest
 import torch
 from helpers import hold_arm_action, put
 
-from robolab_ms.tasks.predicates import PREDICATES, combine, per_object
 from robolab_ms.tasks.condition import Condition
+from robolab_ms.tasks.predicates import PREDICATES, combine, per_object
 
 TESTED = set()
 
@@ -191,8 +191,13 @@ def test_grasped_released_picked_up(env):
 def test_require_picked_up_counts_only_what_the_robot_lifted(env):
     """The flag latches `picked_up` per object: a block lying outside the bin does not count until the gripper has
     lifted it, and still counts once it is let go of and lies on the table again."""
-    condition = Condition("outside_of_and_on_surface", ("blue",), {"container": "bin", "surface": "table"},
-                          params=dict(PREDICATES["outside_of_and_on_surface"].params), require_picked_up=True)
+    condition = Condition(
+        "outside_of_and_on_surface",
+        ("blue",),
+        {"container": "bin", "surface": "table"},
+        params=dict(PREDICATES["outside_of_and_on_surface"].params),
+        require_picked_up=True,
+    )
     TESTED.add("require_picked_up")
 
     def holds() -> bool:
@@ -221,8 +226,10 @@ def test_require_picked_up_counts_only_what_the_robot_lifted(env):
 
 def test_placed_in_container_in_order(env):
     def both():
-        return (check(env, "placed_in_container_in_order", ["red", "green"], container="bin")[0],
-                check(env, "placed_in_container_in_order", ["green", "red"], container="bin")[0])  # fmt: skip
+        return (
+            check(env, "placed_in_container_in_order", ["red", "green"], container="bin")[0],
+            check(env, "placed_in_container_in_order", ["green", "red"], container="bin")[0],
+        )
 
     assert both() == (False, False)
     put(env, "red", (BIN_CENTRE[0], BIN_CENTRE[1] - 0.07, 0.035))
@@ -237,8 +244,14 @@ def test_groups_in_containers(env):
     put(env, "red", (*BIN_CENTRE, 0.035))
     put(env, "green", (*BOWL, 0.03))
     settle(env)
-    assert check(env, "groups_in_containers", ["red", "green"], groups={"bin": ["red"], "bowl": ["green"]}) == [True, True]
-    assert check(env, "groups_in_containers", ["red", "green"], groups={"bin": ["green"], "bowl": ["red"]}) == [False, False]
+    assert check(env, "groups_in_containers", ["red", "green"], groups={"bin": ["red"], "bowl": ["green"]}) == [
+        True,
+        True,
+    ]
+    assert check(env, "groups_in_containers", ["red", "green"], groups={"bin": ["green"], "bowl": ["red"]}) == [
+        False,
+        False,
+    ]
 
 
 def test_every_predicate_has_a_physics_test():

@@ -62,7 +62,6 @@ def test_groups_of_different_lengths_in_one_stage():
     assert tracker.stage_index.item() == 1
 
 
-
 def test_a_steady_scene_gives_a_steady_level():
     """An earlier condition broke while a later one holds: the group stays at the later one, step after step."""
     tracker = ProgressTracker([Stage((Group((0, 1, 2), (1.0, 1.0, 1.0)),))], num_envs=1)

@@ -52,8 +52,9 @@ def test_a_slow_server_makes_the_arm_hold_and_late_actions_are_skipped(tmp_path)
     try:
         (result,) = run_evaluation(make_policy("openpi", options), config, tmp_path / "run", show_progress=False)
         with pytest.raises(RoboLabError, match="run with --realtime"):  # one folder, one timing
-            run_evaluation(make_policy("openpi", PolicyOptions(port=port)), config, tmp_path / "run",
-                           show_progress=False)  # fmt: skip
+            run_evaluation(
+                make_policy("openpi", PolicyOptions(port=port)), config, tmp_path / "run", show_progress=False
+            )
     finally:
         server.stop()
     assert result.error is None and result.steps == STEPS and result.realtime
@@ -90,9 +91,12 @@ def test_a_fast_server_is_asked_every_open_loop_horizon_and_only_the_first_reply
     horizon, steps = 8, 24
     config = EvalConfig(tasks=("BananaInBowl",), episodes=1, first_seed=SEED, max_steps=steps, save_actions=True)
     try:
-        (result,) = run_evaluation(make_policy("openpi", PolicyOptions(port=port, open_loop_horizon=horizon,
-                                                                       realtime=True)),
-                                   config, tmp_path, show_progress=False)  # fmt: skip
+        (result,) = run_evaluation(
+            make_policy("openpi", PolicyOptions(port=port, open_loop_horizon=horizon, realtime=True)),
+            config,
+            tmp_path,
+            show_progress=False,
+        )
     finally:
         server.stop()
     assert result.error is None and result.steps == steps
@@ -108,8 +112,13 @@ def test_a_fast_server_is_asked_every_open_loop_horizon_and_only_the_first_reply
 
 
 def test_realtime_is_refused_for_policies_that_run_in_process():
-    result = subprocess.run([ROBOLAB, "eval", "--policy", "random", "--realtime", "--task", "BananaInBowl"],
-                            check=False, capture_output=True, text=True, timeout=300)  # fmt: skip
+    result = subprocess.run(
+        [ROBOLAB, "eval", "--policy", "random", "--realtime", "--task", "BananaInBowl"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert "--realtime: policy 'random' computes in this process" in result.stderr
     assert "robolab serve --policy random" in result.stderr  # the way to do it

@@ -35,8 +35,24 @@ def robolab(*args: str, timeout: int = 600) -> subprocess.CompletedProcess:
 def recorded(tmp_path_factory) -> Path:
     """Two short random-policy episodes recorded with images and videos."""
     out = tmp_path_factory.mktemp("recorded")
-    code = main(["eval", "--policy", "random", "--task", TASK, "--episodes", "2", "--max-steps", str(STEPS),
-                 "--record-images", "--video", "--out", str(out), "--quiet"])  # fmt: skip
+    code = main(
+        [
+            "eval",
+            "--policy",
+            "random",
+            "--task",
+            TASK,
+            "--episodes",
+            "2",
+            "--max-steps",
+            str(STEPS),
+            "--record-images",
+            "--video",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     assert code == 0
     return out
 
@@ -124,9 +140,23 @@ def test_maniskill_replay_tool_replays_our_recording(recorded, tmp_path):
     file = tmp_path / source.name
     shutil.copy(source, file)
     shutil.copy(source.with_suffix(".json"), file.with_suffix(".json"))
-    run = subprocess.run([sys.executable, "-m", "mani_skill.trajectory.replay_trajectory", "--traj-path", str(file),
-                          "--save-traj", "--allow-failure", "-o", "state_dict"],
-                         capture_output=True, text=True, timeout=600, env={**os.environ, "TQDM_DISABLE": "1"})  # fmt: skip
+    run = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mani_skill.trajectory.replay_trajectory",
+            "--traj-path",
+            str(file),
+            "--save-traj",
+            "--allow-failure",
+            "-o",
+            "state_dict",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "TQDM_DISABLE": "1"},
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     replayed = file.with_name(f"{file.stem}.state_dict.pd_joint_pos.physx_cpu.h5")
     with h5py.File(file) as ours, h5py.File(replayed) as theirs:
@@ -154,8 +184,22 @@ def test_video_has_a_frame_per_step_with_cameras_and_caption(recorded):
 
 def test_adaptive_episodes_stop_once_the_interval_is_narrow_enough(tmp_path):
     width = 0.25
-    command = ("eval", "--policy", "random", "--task", TASK, "--episodes-adaptive", "30", "--ci-width", str(width),
-               "--max-steps", "1", "--out", str(tmp_path), "--quiet")  # fmt: skip
+    command = (
+        "eval",
+        "--policy",
+        "random",
+        "--task",
+        TASK,
+        "--episodes-adaptive",
+        "30",
+        "--ci-width",
+        str(width),
+        "--max-steps",
+        "1",
+        "--out",
+        str(tmp_path),
+        "--quiet",
+    )
     assert main(list(command)) == 0
     outcomes = [r["success"] for r in lines(tmp_path)]
     n = len(outcomes)
@@ -177,7 +221,10 @@ def test_list_and_eval_choose_tasks_by_filters(tmp_path, capsys):
     assert listed == expected and expected
     assert main(["list", "--task", "all", "--scene", "colored_blocks"]) == 0
     assert "\n2 task(s)" in capsys.readouterr().out
-    assert main(["eval", "--task", "all", "--difficulty", "complex", "--scene", "banana_bowl", "--out", str(tmp_path)]) == 2
+    assert (
+        main(["eval", "--task", "all", "--difficulty", "complex", "--scene", "banana_bowl", "--out", str(tmp_path)])
+        == 2
+    )
     assert "no task matches difficulty complex, scene banana_bowl" in capsys.readouterr().err
     assert main(["eval", "--tag", "spatail", "--out", str(tmp_path)]) == 2
     assert "Did you mean 'spatial'" in capsys.readouterr().err
@@ -195,8 +242,18 @@ def test_video_encoder_keeps_ended_videos_and_drops_an_unfinished_one(tmp_path):
     encoder = EpisodeVideo()
     encoder.begin(tmp_path / "done.mp4")
     for step in range(7):
-        encoder.add(views, wide, Caption("Put the banana in the bowl.", step, 6, 0.5, step == 6,
-                                         [{"step": 2, "type": "object_bumped", "object": "apple"}]))  # fmt: skip
+        encoder.add(
+            views,
+            wide,
+            Caption(
+                "Put the banana in the bowl.",
+                step,
+                6,
+                0.5,
+                step == 6,
+                [{"step": 2, "type": "object_bumped", "object": "apple"}],
+            ),
+        )
     encoder.end()
     encoder.begin(tmp_path / "interrupted.mp4")
     encoder.add(views, wide, Caption("x", 0, 6))

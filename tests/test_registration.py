@@ -11,8 +11,9 @@ DEMO = [sys.executable, "-m", "mani_skill.examples.demo_random_action", "--quiet
 
 
 def run_python(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, *args], capture_output=True, text=True, timeout=600,
-                          env={**os.environ, **(env or {})})  # fmt: skip
+    return subprocess.run(
+        [sys.executable, *args], capture_output=True, text=True, timeout=600, env={**os.environ, **(env or {})}
+    )
 
 
 @pytest.mark.parametrize("env_id", ["RoboLab-BananaInBowl-v1", "robolab_ms:RoboLab-BananaInBowl-v1"])
@@ -47,14 +48,17 @@ def test_unknown_env_id_suggests_the_close_one():
 
 
 def test_reading_specs_imports_no_simulator():
-    code = ("import sys, robolab_ms.tasks.spec, robolab_ms.tasks.events;"
-            "print(sorted(m for m in ('mani_skill', 'sapien') if m in sys.modules))")  # fmt: skip
+    code = (
+        "import sys, robolab_ms.tasks.spec, robolab_ms.tasks.events;"
+        "print(sorted(m for m in ('mani_skill', 'sapien') if m in sys.modules))"
+    )
     result = run_python("-c", code)
     assert result.returncode == 0 and result.stdout.strip() == "[]" and result.stderr == "", result.stderr
 
 
-@pytest.mark.parametrize("module", ["robolab_ms.agents", "robolab_ms.agents.droid", "robolab_ms.scene.builder",
-                                    "robolab_ms.scene.scene_env"])
+@pytest.mark.parametrize(
+    "module", ["robolab_ms.agents", "robolab_ms.agents.droid", "robolab_ms.scene.builder", "robolab_ms.scene.scene_env"]
+)
 def test_importing_a_module_that_brings_up_maniskill_still_registers(module):
     # ManiSkill's environments come up half-way through these imports, and the hook registers right then: what it
     # imports must not need the module still being imported

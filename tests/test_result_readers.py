@@ -24,8 +24,20 @@ from robolab_ms.errors import ResultsError
 
 ROBOLAB = str(Path(sys.executable).with_name("robolab"))
 TASKS = ("BananaInBowl", "RubiksCubeLeftOfBowl")
-EVAL = ("eval", "--policy", "random", "--task", *TASKS, "--episodes", "2", "--max-steps", "5", "--vary", "lighting",
-        "--quiet")  # fmt: skip
+EVAL = (
+    "eval",
+    "--policy",
+    "random",
+    "--task",
+    *TASKS,
+    "--episodes",
+    "2",
+    "--max-steps",
+    "5",
+    "--vary",
+    "lighting",
+    "--quiet",
+)
 # the fields of a result line in earlier versions, from the history of eval/results.py: the first version (commit
 # 460f345, robot "panda" by default) and the one before variations were recorded (f554d3e)
 FIRST_VERSION_FIELDS = ("task", "instruction_variant", "instruction", "robot", "policy", "seed", "success", "score",
@@ -118,12 +130,12 @@ CASES = [
     Case("NaN metric", edit(1, put("metrics.ee_sparc", NAN))),
     Case("null metrics and events", edit(1, lambda line: line.update(metrics=None, events=None, event_counts=None))),
     Case("NaN and null variation parameters", edit(1, lambda line: line["variation"].update(
-        light_intensity=NAN, light_color=None))),  # fmt: skip
+        light_intensity=NAN, light_color=None))),
     Case("unknown extra fields", edit(2, lambda line: line.update(future_field={"nested": [1, 2]},
                                                                   metrics={**line["metrics"], "future_metric": 1.5}))),
     Case("truncated last line", lambda lines: dump(lines)[:-40], episodes=3),
     Case("half-written line, then a resumed run", lambda lines: dump(lines[:1])[:80] + "\n" + dump(lines[1:]),
-         episodes=3),  # fmt: skip
+         episodes=3),
     Case("blank lines and CRLF", lambda lines: "\n" + dump(lines).replace("\n", "\r\n\r\n")),
     Case("an episode run again", lambda lines: dump([*lines, {**lines[0], "error": None, "score": 0.5}])),
     Case("first version (no tallies, robot panda)", keep_only(FIRST_VERSION_FIELDS, robot="panda", metrics={})),
@@ -215,14 +227,26 @@ def test_folder_without_a_readable_manifest_is_read(damage, valid, tmp_path, cap
     assert robolab(capsys, "sensitivity", folder)[0] == 2
 
 
-@pytest.mark.parametrize("state", ["no episodes file", "empty episodes file", "only a partial line",
-                                   "episodes file is a folder", "a file, not a folder"])  # fmt: skip
+@pytest.mark.parametrize(
+    "state",
+    [
+        "no episodes file",
+        "empty episodes file",
+        "only a partial line",
+        "episodes file is a folder",
+        "a file, not a folder",
+    ],
+)
 def test_partial_folders_are_named_with_what_to_do(state, valid, tmp_path, capsys):
     folder = copy_results(valid, tmp_path / "run")
     episodes = folder / "episodes.jsonl"
-    expected = {"no episodes file": "no episodes.jsonl in it", "empty episodes file": "no complete episode",
-                "only a partial line": "no complete episode", "episodes file is a folder": "cannot be read",
-                "a file, not a folder": "a file, not a folder"}[state]  # fmt: skip
+    expected = {
+        "no episodes file": "no episodes.jsonl in it",
+        "empty episodes file": "no complete episode",
+        "only a partial line": "no complete episode",
+        "episodes file is a folder": "cannot be read",
+        "a file, not a folder": "a file, not a folder",
+    }[state]
     if state == "no episodes file":
         episodes.unlink()
     elif state == "empty episodes file":
@@ -250,8 +274,9 @@ def test_sensitivity_on_parameters_of_some_tasks_and_a_malformed_manifest(tmp_pa
             line["variation"]["obj_rubiks_cube_dx"] = 0.01 * line["seed"]
     (folder / "episodes.jsonl").write_text(dump(lines))
     (folder / "manifest.json").write_text(json.dumps({"variations": {"ranges": {"lighting": "0.1:2"}}}))
-    code, printed = robolab(capsys, "sensitivity", folder, "--epochs", "2", "--samples", "200", "--out",
-                            tmp_path / "sensitivity")  # fmt: skip
+    code, printed = robolab(
+        capsys, "sensitivity", folder, "--epochs", "2", "--samples", "200", "--out", tmp_path / "sensitivity"
+    )
     assert code == 0, printed
     assert "left out, recorded for some episodes only: obj_rubiks_cube_dx" in printed
     table = pd.read_csv(tmp_path / "sensitivity" / "sensitivity.csv")
@@ -286,7 +311,7 @@ RECORDING_CASES = {
     "valid": (lambda folder: None, None),
     "no robolab block (skipped)": (lambda folder: _recording(folder, ".json").write_text('{"episodes": []}'), None),
     "truncated .json": (lambda folder: _recording(folder, ".json").write_text(
-        _recording(folder, ".json").read_text()[:120]), ("", ".json")),  # fmt: skip
+        _recording(folder, ".json").read_text()[:120]), ("", ".json")),
     ".json not an object": (lambda folder: _recording(folder, ".json").write_text("[1, 2]"), ("", ".json")),
     "text control rate": (_set_meta("control_hz", "fast"), ("robolab.control_hz", ".json")),
     "NaN seed": (_set_meta("seed", NAN), ("robolab.seed", ".json")),
@@ -294,7 +319,7 @@ RECORDING_CASES = {
     "score as text": (_set_meta("score", "high"), ("robolab.score", ".json")),
     ".h5 not HDF5": (lambda folder: _recording(folder, ".h5").write_bytes(b"not hdf5"), ("", ".h5")),
     ".h5 truncated": (lambda folder: _recording(folder, ".h5").write_bytes(_recording(folder, ".h5").read_bytes()[:4096]),
-                      ("", ".h5")),  # fmt: skip
+                      ("", ".h5")),
     ".h5 without actions": (_drop_dataset("actions"), ("traj_0/actions", ".h5")),
     ".h5 without joint positions": (_drop_dataset("robolab/joint_position"), ("traj_0/robolab/joint_position", ".h5")),
 }  # fmt: skip
@@ -329,4 +354,4 @@ def test_the_installed_command_prints_one_line_for_a_broken_file(valid, tmp_path
         f"robolab: error: {folder / 'episodes.jsonl'} line 3, field 'score': is \"high\" (text), expected a finite "
         f"number. {LINE_FIX} (a later `robolab eval` with the same options runs that episode again); docs/results.md "
         "lists the fields"
-    ]  # fmt: skip
+    ]

@@ -59,8 +59,9 @@ def same_resting_side(theirs: np.ndarray, their_rank: int, ours: np.ndarray, our
     if their_rank == our_rank:
         return True
     theirs, ours = np.sort(theirs), np.sort(ours)
-    return (max(theirs[their_rank], theirs[our_rank]) <= SIMILAR * min(theirs[their_rank], theirs[our_rank])
-            or max(ours[their_rank], ours[our_rank]) <= SIMILAR * min(ours[their_rank], ours[our_rank]))  # fmt: skip
+    return max(theirs[their_rank], theirs[our_rank]) <= SIMILAR * min(theirs[their_rank], theirs[our_rank]) or max(
+        ours[their_rank], ours[our_rank]
+    ) <= SIMILAR * min(ours[their_rank], ours[our_rank])
 
 
 def test_the_reference_covers_every_shipped_scene_but_our_own():
@@ -82,8 +83,9 @@ def test_scene_is_robolabs_layout(scene_name):
         distance = math.dist(placement.xy, (float(row["x"]), float(row["y"])))
         moved = re.search(r"moved ([\d.]+) cm", change)
         if moved and abs(distance - float(moved[1]) / 100) > MOVE_TOLERANCE:
-            problems.append(f"{placement.name}: {distance * 100:.1f} cm from RoboLab's place, its comment says "
-                            f"{moved[1]} cm")  # fmt: skip
+            problems.append(
+                f"{placement.name}: {distance * 100:.1f} cm from RoboLab's place, its comment says {moved[1]} cm"
+            )
         if not moved and distance > PLACE_TOLERANCE:
             problems.append(f"{placement.name}: {distance * 100:.1f} cm from RoboLab's place, and no comment says so")
         other_changes = [clause for clause in change.split("; ") if clause and not clause.startswith("moved ")]
@@ -97,8 +99,9 @@ def test_scene_is_robolabs_layout(scene_name):
         our_rank = vertical_rank(our_dimensions, our_rotation)
         if not same_resting_side(their_dimensions, their_rank, our_dimensions, our_rank):
             sides = ("flat", "on its side", "upright")
-            problems.append(f"{placement.name}: RoboLab's rests {sides[their_rank]}, ours {sides[our_rank]}, and no "
-                            "comment says so")  # fmt: skip
+            problems.append(
+                f"{placement.name}: RoboLab's rests {sides[their_rank]}, ours {sides[our_rank]}, and no comment says so"
+            )
     assert not problems, "\n".join(problems)
 
 
@@ -109,7 +112,11 @@ def test_docs_list_every_stated_change():
         cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
         if len(cells) == 3 and cells[0] in LAYOUTS:
             listed.add(tuple(cells))
-    stated = {(scene, body, change) for scene in LAYOUTS if scene in scene_files()
-              for body, change in stated_changes(scene).items()}  # fmt: skip
+    stated = {
+        (scene, body, change)
+        for scene in LAYOUTS
+        if scene in scene_files()
+        for body, change in stated_changes(scene).items()
+    }
     assert stated - listed == set(), "changes the docs do not list"
     assert listed - stated == set(), "changes the docs list that the scene files do not state"

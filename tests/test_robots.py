@@ -3,11 +3,11 @@
 import gymnasium as gym
 import numpy as np
 import pytest
+from helpers import hold_arm_action, put
 
 from robolab_ms.agents import DEFAULT_ROBOT, ROBOT_BINDINGS
 from robolab_ms.envs import RoboLabEnv
 from robolab_ms.errors import UnknownNameError
-from helpers import hold_arm_action, put
 
 
 @pytest.fixture(scope="module", params=sorted(ROBOT_BINDINGS))

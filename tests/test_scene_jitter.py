@@ -25,8 +25,9 @@ def write_scene(tmp_path: Path, objects: str, jitter: str) -> Path:
 
 
 def test_close_neighbours_never_meet_yet_still_move(tmp_path):
-    objects = ("  - {name: left, asset: block_red, xy: [0.5, 0.03]}\n"
-               "  - {name: right, asset: block_blue, xy: [0.5, -0.03]}\n")  # fmt: skip
+    objects = (
+        "  - {name: left, asset: block_red, xy: [0.5, 0.03]}\n  - {name: right, asset: block_blue, xy: [0.5, -0.03]}\n"
+    )
     catalog = load_catalog()
     sampler = JitterSampler(read_scene(write_scene(tmp_path, objects, "{xy: 0.04, yaw_deg: 30}"), catalog), catalog)
     nominal_gap = -outlines_overlap(*sampler.footprints(np.zeros((2, 2)), np.zeros(2)))
@@ -49,8 +50,9 @@ def test_close_neighbours_never_meet_yet_still_move(tmp_path):
 
 
 def test_an_object_in_a_container_stays_inside_its_outline(tmp_path):
-    objects = ("  - {name: bowl, asset: bowl_white, xy: [0.5, 0.1]}\n"
-               "  - {name: cube, asset: block_red, xy: [0.5, 0.1]}\n")  # fmt: skip
+    objects = (
+        "  - {name: bowl, asset: bowl_white, xy: [0.5, 0.1]}\n  - {name: cube, asset: block_red, xy: [0.5, 0.1]}\n"
+    )
     catalog = load_catalog()
     sampler = JitterSampler(read_scene(write_scene(tmp_path, objects, "{xy: 0.05, yaw_deg: 45}"), catalog), catalog)
     moved = []
@@ -63,8 +65,10 @@ def test_an_object_in_a_container_stays_inside_its_outline(tmp_path):
 
 
 def test_a_pair_that_cannot_be_jittered_apart_ends_at_its_nominal_places(tmp_path):
-    objects = ("  - {name: left, asset: block_red, xy: [0.5, 0.0255]}\n"
-               "  - {name: right, asset: block_blue, xy: [0.5, -0.0255]}\n")  # fmt: skip  1 mm apart
+    objects = (
+        "  - {name: left, asset: block_red, xy: [0.5, 0.0255]}\n"
+        "  - {name: right, asset: block_blue, xy: [0.5, -0.0255]}\n"
+    )  # 1 mm apart
     catalog = load_catalog()
     sampler = JitterSampler(read_scene(write_scene(tmp_path, objects, "{xy: 0.1, yaw_deg: 90}"), catalog), catalog)
     nominal = outlines_overlap(*sampler.footprints(np.zeros((2, 2)), np.zeros(2)))

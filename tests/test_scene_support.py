@@ -51,8 +51,9 @@ def test_stacked_cubes_start_one_on_another():
 
 def test_a_list_of_tilts_turns_about_fixed_axes_in_order(tmp_path):
     path = tmp_path / "s.yaml"
-    path.write_text("name: s\nobjects:\n  - {asset: rubiks_cube, xy: [0.5, 0.0], "
-                    "tilt: [{axis: x, deg: 30}, {axis: y, deg: 10}]}\n")  # fmt: skip
+    path.write_text(
+        "name: s\nobjects:\n  - {asset: rubiks_cube, xy: [0.5, 0.0], tilt: [{axis: x, deg: 30}, {axis: y, deg: 10}]}\n"
+    )
     tilt = read_scene(path).objects[0].tilt
     about_x = (math.cos(math.radians(15)), math.sin(math.radians(15)), 0.0, 0.0)
     about_y = (math.cos(math.radians(5)), 0.0, math.sin(math.radians(5)), 0.0)

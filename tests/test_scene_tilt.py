@@ -70,7 +70,9 @@ def test_lying_mug_rests_on_its_side_on_the_table():
         ctx.refresh()
         up = ctx.rotation("red_mug")[0, :, 2]
         assert abs(float(up[2])) < 0.05  # its axis lies flat
-        points = ctx.entries["red_mug"].points @ ctx.rotation("red_mug")[0].numpy().T + ctx.position("red_mug")[0].numpy()
+        points = (
+            ctx.entries["red_mug"].points @ ctx.rotation("red_mug")[0].numpy().T + ctx.position("red_mug")[0].numpy()
+        )
         assert 0.0 <= points[:, 2].min() <= 0.004
     finally:
         env.close()
@@ -85,7 +87,9 @@ def test_upside_down_mug_rests_on_its_rim():
         ctx = env.unwrapped.eval_context
         ctx.refresh()
         assert float(ctx.rotation("red_mug")[0, 2, 2]) < -0.95  # its axis points down
-        points = ctx.entries["red_mug"].points @ ctx.rotation("red_mug")[0].numpy().T + ctx.position("red_mug")[0].numpy()
+        points = (
+            ctx.entries["red_mug"].points @ ctx.rotation("red_mug")[0].numpy().T + ctx.position("red_mug")[0].numpy()
+        )
         assert 0.0 <= points[:, 2].min() <= 0.004
     finally:
         env.close()

@@ -28,8 +28,16 @@ POSE_TOLERANCE = 1e-6
 # RoboLab layouts with a wooden rack, a chrome wire shelf and a storage rack (fixtures, levels), objects in crates
 # and bins, a three-cube stack, tilted objects, textured package meshes, and our own scene with a table material,
 # background and jitter of its own
-SCENES = ["mugs_on_shelf", "wire_shelf_mugs_plate_spatula", "shelf_with_cleaning_products", "bananas_5_in_crate",
-          "rubiks_cube_3", "cartons_in_crate", "bin_condiments", "kitchen_table"]  # fmt: skip
+SCENES = [
+    "mugs_on_shelf",
+    "wire_shelf_mugs_plate_spatula",
+    "shelf_with_cleaning_products",
+    "bananas_5_in_crate",
+    "rubiks_cube_3",
+    "cartons_in_crate",
+    "bin_condiments",
+    "kitchen_table",
+]
 
 
 @pytest.fixture(scope="module")
@@ -55,8 +63,11 @@ def test_round_trip_keeps_every_pose(tmp_path, catalog, name):
     export_scene(source, usd, catalog)
     stage = Usd.Stage.Open(str(usd))
     for placement in source.objects:
-        body = next(prim for prim in stage.GetPrimAtPath("/World").GetChildren()
-                    if prim.GetAttribute("robolab:name").Get() == placement.name)  # fmt: skip
+        body = next(
+            prim
+            for prim in stage.GetPrimAtPath("/World").GetChildren()
+            if prim.GetAttribute("robolab:name").Get() == placement.name
+        )
         translate = np.array(body.GetAttribute("xformOp:translate").Get())
         orient = body.GetAttribute("xformOp:orient").Get()
         orient = np.array([orient.GetReal(), *orient.GetImaginary()])
@@ -67,13 +78,22 @@ def test_round_trip_keeps_every_pose(tmp_path, catalog, name):
     assert back.object_names() == source.object_names()
     for placement in source.objects:
         other = back.placement(placement.name)
-        assert (other.asset, other.on, other.level, other.fixture) == (placement.asset, placement.on, placement.level,
-                                                                        placement.fixture), placement.name  # fmt: skip
+        assert (other.asset, other.on, other.level, other.fixture) == (
+            placement.asset,
+            placement.on,
+            placement.level,
+            placement.fixture,
+        ), placement.name
         assert np.abs(np.subtract(other.xy, placement.xy)).max() <= POSE_TOLERANCE, placement.name
         assert abs(other.z - placement.z) <= POSE_TOLERANCE, placement.name
         assert rotation_gap(quaternion(other), quaternion(placement)) <= POSE_TOLERANCE, placement.name
     assert (back.table_size, back.table_rgba, back.table_material, back.background, back.description) == (
-        source.table_size, source.table_rgba, source.table_material, source.background, source.description)
+        source.table_size,
+        source.table_rgba,
+        source.table_material,
+        source.background,
+        source.description,
+    )
     assert abs(back.jitter_xy - source.jitter_xy) < 1e-9 and abs(back.jitter_yaw - source.jitter_yaw) < 1e-9
     assert report.notes == []
 
@@ -94,8 +114,11 @@ def test_stage_bodies_masses_and_colliders(tmp_path, catalog):
     for static in ("/World/table", "/World/robot_pedestal"):
         prim = stage.GetPrimAtPath(static)
         assert prim.HasAPI(UsdPhysics.CollisionAPI) and not prim.HasAPI(UsdPhysics.RigidBodyAPI)
-    top = UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.default_]).ComputeWorldBound(
-        stage.GetPrimAtPath("/World/table")).ComputeAlignedRange()  # fmt: skip
+    top = (
+        UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.default_])
+        .ComputeWorldBound(stage.GetPrimAtPath("/World/table"))
+        .ComputeAlignedRange()
+    )
     assert abs(top.GetMax()[2]) < 1e-12 and np.allclose(np.array(top.GetMax() - top.GetMin())[:2], spec.table_size)
     guide = UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.guide])
     render = UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.default_])
@@ -108,8 +131,10 @@ def test_stage_bodies_masses_and_colliders(tmp_path, catalog):
         assert UsdPhysics.MassAPI(body).GetMassAttr().Get() == pytest.approx(entry.mass, rel=1e-6)
         assert bool(UsdPhysics.RigidBodyAPI(body).GetKinematicEnabledAttr().Get()) == placement.fixture
         colliders = [prim for prim in Usd.PrimRange(body) if prim.HasAPI(UsdPhysics.CollisionAPI)]
-        visual = np.array(render.ComputeUntransformedBound(body).ComputeAlignedRange().GetMin()), np.array(
-            render.ComputeUntransformedBound(body).ComputeAlignedRange().GetMax())  # fmt: skip
+        visual = (
+            np.array(render.ComputeUntransformedBound(body).ComputeAlignedRange().GetMin()),
+            np.array(render.ComputeUntransformedBound(body).ComputeAlignedRange().GetMax()),
+        )
         if entry.parts:
             kinds.add("procedural")
             assert len(colliders) == len(entry.parts)
@@ -117,8 +142,9 @@ def test_stage_bodies_masses_and_colliders(tmp_path, catalog):
         else:
             kinds.add("mesh")
             assert len(colliders) == len(entry.hulls)
-            assert all(UsdPhysics.MeshCollisionAPI(prim).GetApproximationAttr().Get() == "convexHull"
-                       for prim in colliders)  # fmt: skip
+            assert all(
+                UsdPhysics.MeshCollisionAPI(prim).GetApproximationAttr().Get() == "convexHull" for prim in colliders
+            )
             hulls = guide.ComputeUntransformedBound(body).ComputeAlignedRange()
             assert np.abs(np.array([hulls.GetMin(), hulls.GetMax()]) - entry.bounds).max() < 1e-5, placement.name
             assert np.abs(np.stack(visual) - entry.bounds).max() < 0.005, placement.name  # visual mesh ~ its hulls
@@ -192,8 +218,9 @@ def foreign_layout(folder: Path, catalog) -> Path:
     banana = placed_pieces(catalog["banana_curved"], banana_turn, np.array([0.5, -0.1, 0.0]))
     rests = drop_height(banana, placed_pieces(catalog["bowl_white"], np.eye(3), np.array([0.5, -0.1, 0.0])))
     body(stage, "/Root/Props/Bowl", (50.0, -10.0, 75.0), reference="./props/bowl_white.usd", rigid=True)
-    body(stage, "/Root/Props/Banana_01", (50.0, -10.0, 75.0 + 100 * rests), yaw_deg=30.0,
-         reference="./props/Banana.usd")  # fmt: skip
+    body(
+        stage, "/Root/Props/Banana_01", (50.0, -10.0, 75.0 + 100 * rests), yaw_deg=30.0, reference="./props/Banana.usd"
+    )
     body(stage, "/Root/Props/MugA", (40.0, 25.0, 75.0), yaw_deg=-90.0, rigid=True)
     body(stage, "/Root/Robot", (0.0, 0.0, 75.0), reference="./props/franka.usd")
     UsdGeom.Camera.Define(stage, "/Root/Camera")
@@ -280,25 +307,39 @@ def test_cli_round_trip_loads_lists_and_resets(tmp_path, catalog):
     it is listed by `robolab list` and its environment resets with the imported bodies, the fixture where the
     source scene puts it."""
     exported = tmp_path / "usd" / "shelf.usda"
-    done = subprocess.run([*ROBOLAB, "scene", "export", "mugs_on_shelf", "--usd", str(exported)], capture_output=True,
-                          text=True, timeout=300)  # fmt: skip
+    done = subprocess.run(
+        [*ROBOLAB, "scene", "export", "mugs_on_shelf", "--usd", str(exported)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     assert "passes USD's checks" in done.stdout
     moved = tmp_path / "moved"
     shutil.move(str(exported.parent), str(moved))
     content = tmp_path / "content"
     scene_file = content / "scene_builders" / "shelf_from_usd.yaml"
-    done = subprocess.run([*ROBOLAB, "scene", "import", str(moved / "shelf.usda"), "--out", str(scene_file)],
-                          capture_output=True, text=True, timeout=300)  # fmt: skip
+    done = subprocess.run(
+        [*ROBOLAB, "scene", "import", str(moved / "shelf.usda"), "--out", str(scene_file)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     assert "the scene loader reads it" in done.stdout
     (content / "task_specs").mkdir()
     task = content / "task_specs" / "UsdShelfProbe.yaml"
-    task.write_text("name: UsdShelfProbe\nscene: shelf_from_usd\nepisode_seconds: 10\nattributes: []\n"
-                    "instructions: {default: pick up the white mug, vague: pick it up, specific: pick up the white "
-                    "mug from the rack}\nsuccess:\n  - {predicate: picked_up, objects: [mug]}\n")  # fmt: skip
-    listed = subprocess.run([*ROBOLAB, "list", "--content", str(content), "--task", "UsdShelfProbe"],
-                            capture_output=True, text=True, timeout=300)  # fmt: skip
+    task.write_text(
+        "name: UsdShelfProbe\nscene: shelf_from_usd\nepisode_seconds: 10\nattributes: []\n"
+        "instructions: {default: pick up the white mug, vague: pick it up, specific: pick up the white "
+        "mug from the rack}\nsuccess:\n  - {predicate: picked_up, objects: [mug]}\n"
+    )
+    listed = subprocess.run(
+        [*ROBOLAB, "list", "--content", str(content), "--task", "UsdShelfProbe"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert listed.returncode == 0, listed.stderr
     assert "shelf_from_usd" in listed.stdout
     from robolab_ms.envs import RoboLabEnv

@@ -103,10 +103,14 @@ VALID: dict[str, dict[str, set[str]]] = {
         "objects.*.transform.translation[]": {"zero", "negative"},
     },
 }
-TURNS = {"objects[].yaw_deg": {"zero", "negative", "missing"}, "objects[].tilt": {"missing", "repeated_entry"},
-         "objects[].tilt.deg": {"zero", "negative"}, "objects[].tilt[].deg": {"zero", "negative"},
-         "objects[].rests_on": {"missing"},  # -1 degree: a slight turn; without its support, on the table
-         "objects[].level": {"zero"}}  # the lowest board of its fixture, which may leave too little room above
+TURNS = {
+    "objects[].yaw_deg": {"zero", "negative", "missing"},
+    "objects[].tilt": {"missing", "repeated_entry"},
+    "objects[].tilt.deg": {"zero", "negative"},
+    "objects[].tilt[].deg": {"zero", "negative"},
+    "objects[].rests_on": {"missing"},  # -1 degree: a slight turn; without its support, on the table
+    "objects[].level": {"zero"},
+}  # the lowest board of its fixture, which may leave too little room above
 LAYOUT = "layout"  # valid, or refused because objects overlap or leave the table (depends on the other objects)
 
 
@@ -304,8 +308,10 @@ def mutations(kind: str, data: dict, fully: frozenset[str], turn: int) -> Iterat
         applicable = [(name, result) for name in MUTATIONS if (result := mutate(data, path, name)) is not None]
         if occurrence or kind_of_field not in fully:
             start = (occurrence + turn) * LATER_OCCURRENCE_MUTATIONS
-            applicable = [applicable[(start + i) % len(applicable)]
-                          for i in range(min(LATER_OCCURRENCE_MUTATIONS, len(applicable)))]  # fmt: skip
+            applicable = [
+                applicable[(start + i) % len(applicable)]
+                for i in range(min(LATER_OCCURRENCE_MUTATIONS, len(applicable)))
+            ]
         for name, (mutated, expected) in applicable:
             yield path, name, mutated, expected
 
@@ -338,8 +344,10 @@ def run_mutations(kind: str, name: str, data: dict, file: Path, load: Callable[[
             elif expected is None:
                 problems.append(f"{where}refused although valid: {error}")
             elif expected == LAYOUT:
-                if not (matches("objects[].xy", error.field)
-                        and any(word in error.problem for word in ("overlaps", "table", "support", "level"))):
+                if not (
+                    matches("objects[].xy", error.field)
+                    and any(word in error.problem for word in ("overlaps", "table", "support", "level"))
+                ):
                     problems.append(f"{where}refused, but not for the layout: {error}")
             elif not field_matches(error.field, expected, mutation, isinstance(originals[path], dict)):
                 problems.append(f"{where}the error names field '{error.field}', not '{expected}': {error}")
@@ -498,9 +506,12 @@ def test_bad_support_names_file_field_and_fix(tmp_path, top_x, top_on, field, pr
 
 def test_supports_that_form_a_loop_are_refused(tmp_path):
     path = tmp_path / "pile.yaml"
-    path.write_text(PILE_SCENE.format(top_x=0.5, top_on="bottom").replace(
-        "{name: bottom, asset: rubiks_cube, xy: [0.5, 0.0]}", "{name: bottom, asset: rubiks_cube, xy: [0.5, 0.0], "
-        "rests_on: top}"))  # fmt: skip
+    path.write_text(
+        PILE_SCENE.format(top_x=0.5, top_on="bottom").replace(
+            "{name: bottom, asset: rubiks_cube, xy: [0.5, 0.0]}",
+            "{name: bottom, asset: rubiks_cube, xy: [0.5, 0.0], rests_on: top}",
+        )
+    )
     with pytest.raises(SpecError) as error:
         read_scene(path)
     assert error.value.field == "objects[0].rests_on" and "loop (bottom on top on bottom)" in error.value.problem
@@ -509,9 +520,12 @@ def test_supports_that_form_a_loop_are_refused(tmp_path):
 def test_an_object_that_would_reach_the_table_first_is_refused(tmp_path):
     """A tilted keyboard whose raised end just reaches over a cube: lowered, its other end meets the table first."""
     path = tmp_path / "pile.yaml"
-    path.write_text(PILE_SCENE.format(top_x=0.5, top_on="bottom").replace(
-        "{name: top, asset: rubiks_cube, xy: [0.5, 0.0], rests_on: bottom}",
-        "{name: top, asset: keyboard_low, xy: [0.5, 0.2], tilt: {axis: x, deg: -30}, rests_on: bottom}"))  # fmt: skip
+    path.write_text(
+        PILE_SCENE.format(top_x=0.5, top_on="bottom").replace(
+            "{name: top, asset: rubiks_cube, xy: [0.5, 0.0], rests_on: bottom}",
+            "{name: top, asset: keyboard_low, xy: [0.5, 0.2], tilt: {axis: x, deg: -30}, rests_on: bottom}",
+        )
+    )
     with pytest.raises(SpecError, match="would rest on the table before it touches its support 'bottom'") as error:
         read_scene(path)
     assert error.value.field == "objects[1].xy"

@@ -78,9 +78,13 @@ def test_broken_yaml_names_the_line(tmp_path):
 
 
 def test_catalog_with_bad_mass(tmp_path):
-    path = write(tmp_path, "c", "objects:\n  x: {class: fruit, description: d, colors: [red], mass: -1, "
-                 "friction: {static: 1, dynamic: 1}, license: CC0, "
-                 "source: {kind: procedural, generator: box, params: {size: [0.1, 0.1, 0.1]}}}\n")  # fmt: skip
+    path = write(
+        tmp_path,
+        "c",
+        "objects:\n  x: {class: fruit, description: d, colors: [red], mass: -1, "
+        "friction: {static: 1, dynamic: 1}, license: CC0, "
+        "source: {kind: procedural, generator: box, params: {size: [0.1, 0.1, 0.1]}}}\n",
+    )
     with pytest.raises(SpecError, match=r"objects.x.*mass.*must be positive"):
         read_catalog(path)
 
@@ -93,8 +97,13 @@ def test_unknown_task_suggests():
 def test_no_rendering_device_is_explained(tmp_path):
     robolab = str(Path(sys.executable).with_name("robolab"))
     broken = {**os.environ, "VK_ICD_FILENAMES": "/nonexistent.json", "VK_DRIVER_FILES": "/nonexistent.json"}
-    result = subprocess.run([robolab, "eval", "--task", "BananaInBowl", "--episodes", "1", "--out", str(tmp_path)],
-                            capture_output=True, text=True, env=broken, timeout=300)  # fmt: skip
+    result = subprocess.run(
+        [robolab, "eval", "--task", "BananaInBowl", "--episodes", "1", "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        env=broken,
+        timeout=300,
+    )
     assert result.returncode == 2, result.stderr[-2000:]
     assert "mesa-vulkan-drivers" in result.stderr and "Traceback" not in result.stderr
 
@@ -209,10 +218,18 @@ success:
         ("bowl}", "bowl}\nevents: {tip_angle: .inf}", "events.tip_angle", "finite number"),
         ("bowl}", "bowl}\nevents: {bump_distance: 0.6}", "events.bump_distance", "less than move_distance"),
         ("bowl}", "bowl, require_contact_with: 1}", "success[0].require_contact_with", "true or false"),
-        ("{predicate: in_container, objects: [banana], container: bowl}", "{predicate: upright, objects: [banana], "
-         "require_contact_with: true}", "success[0].require_contact_with", "no reference object"),
-        ("{predicate: in_container, objects: [banana], container: bowl}", "{predicate: stacked, objects: [banana]}",
-         "success[0].objects", "needs at least 2"),
+        (
+            "{predicate: in_container, objects: [banana], container: bowl}",
+            "{predicate: upright, objects: [banana], require_contact_with: true}",
+            "success[0].require_contact_with",
+            "no reference object",
+        ),
+        (
+            "{predicate: in_container, objects: [banana], container: bowl}",
+            "{predicate: stacked, objects: [banana]}",
+            "success[0].objects",
+            "needs at least 2",
+        ),
     ],
 )
 def test_bad_task_values_name_file_field_and_fix(tmp_path, old, new, field, hint):
@@ -249,7 +266,9 @@ def scene(tmp_path: Path, objects: str, table: str = "{size: [0.9, 1.2]}") -> Pa
 def test_objects_may_not_overlap_unless_one_lies_inside_a_container(tmp_path):
     inside = "  - {name: bowl, asset: bowl_white, xy: [0.5, 0.1]}\n  - {name: cube, asset: block_red, xy: [0.5, 0.1]}\n"
     assert [o.name for o in read_scene(scene(tmp_path, inside)).objects] == ["bowl", "cube"]
-    on_plate = "  - {name: plate, asset: plate_white, xy: [0.5, 0.1]}\n  - {name: cube, asset: block_red, xy: [0.5, 0.1]}\n"
+    on_plate = (
+        "  - {name: plate, asset: plate_white, xy: [0.5, 0.1]}\n  - {name: cube, asset: block_red, xy: [0.5, 0.1]}\n"
+    )
     with pytest.raises(SpecError, match=r"'objects\[1\].xy': 'cube' overlaps objects\[0\] 'plate'.*Move them apart"):
         read_scene(scene(tmp_path, on_plate))
     sticking_out = "  - {name: bowl, asset: bowl_white, xy: [0.5, 0.1]}\n  - {name: b, asset: banana, xy: [0.5, 0.2]}\n"
@@ -316,9 +335,15 @@ def test_every_robolab_task_has_robolabs_subtask_count_and_difficulty():
 
 def test_a_groups_in_containers_stage_counts_its_containers(tmp_path):
     """RoboLab counts the object groups of groups_in_containers: one per container, however many objects it holds."""
-    path = write(tmp_path, "Sort", TASK.format(name="Sort", predicate="in_container", obj="banana").replace(
-        "scene: banana_bowl", "scene: rubiks_cube_banana_bowl").replace(
-        "  - {predicate: in_container, objects: [banana], container: bowl}",
-        "  - {predicate: groups_in_containers, groups: {bowl: [banana, rubiks_cube]}}"))  # fmt: skip
+    path = write(
+        tmp_path,
+        "Sort",
+        TASK.format(name="Sort", predicate="in_container", obj="banana")
+        .replace("scene: banana_bowl", "scene: rubiks_cube_banana_bowl")
+        .replace(
+            "  - {predicate: in_container, objects: [banana], container: bowl}",
+            "  - {predicate: groups_in_containers, groups: {bowl: [banana, rubiks_cube]}}",
+        ),
+    )
     spec = read_task(path)
     assert len(spec.subtasks[0].objects) == 2 and spec.num_subtasks == 1

@@ -8,16 +8,14 @@ import json
 import os
 import subprocess
 import sys
-import time
 from dataclasses import asdict
 from pathlib import Path
 
 import pytest
+from helpers import kill_run_with_workers
 
 from robolab_ms.eval.results import EPISODES_FILE, TIMING_FIELDS, EpisodeResult, read_results
 from robolab_ms.eval.validate import REPORT_CSV, REPORT_MD, validate_task, write_report
-
-from helpers import kill_run_with_workers
 
 REPO = Path(__file__).resolve().parents[1]
 SEEDS = 2
@@ -76,13 +74,31 @@ def sequential(tmp_path_factory, task_files) -> Path:
 
 
 def validate_command(task_files: list[str], out: Path) -> list[str]:
-    return [sys.executable, "-m", "robolab_ms.cli", "validate", "--task", *task_files, "--seeds", str(SEEDS),
-            "--out", str(out), "--workers", "2", "--quiet"]  # fmt: skip
+    return [
+        sys.executable,
+        "-m",
+        "robolab_ms.cli",
+        "validate",
+        "--task",
+        *task_files,
+        "--seeds",
+        str(SEEDS),
+        "--out",
+        str(out),
+        "--workers",
+        "2",
+        "--quiet",
+    ]
 
 
 def run_validate(task_files: list[str], out: Path) -> subprocess.CompletedProcess:
-    return subprocess.run(validate_command(task_files, out), capture_output=True, text=True, timeout=600,
-                          env={**os.environ, "PYTHONPATH": str(REPO)})  # fmt: skip
+    return subprocess.run(
+        validate_command(task_files, out),
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+    )
 
 
 def assert_same_as_sequential(out: Path, sequential: Path) -> None:
@@ -92,8 +108,9 @@ def assert_same_as_sequential(out: Path, sequential: Path) -> None:
     rows = report_rows(out)
     assert rows == report_rows(sequential)
     assert [row["task"] for row in rows] == list(TASKS), "rows in task order"
-    assert rows[1]["oracle_failures"] == ("seed 0, 1: ran out of time (15 steps): banana never grasped (the fingers "
-                                          "never touched it)")  # fmt: skip
+    assert rows[1]["oracle_failures"] == (
+        "seed 0, 1: ran out of time (15 steps): banana never grasped (the fingers never touched it)"
+    )
 
 
 @pytest.mark.slow
@@ -112,10 +129,15 @@ def test_two_workers_give_the_rows_and_episodes_of_a_sequential_run(tmp_path, ta
 def test_a_run_killed_mid_way_resumes_without_running_finished_episodes_again(tmp_path, task_files, sequential):
     out = tmp_path / "killed"
     log = (tmp_path / "killed.log").open("w")
-    process = subprocess.Popen(validate_command(task_files, out), stdout=log, stderr=subprocess.STDOUT,
-                               env={**os.environ, "PYTHONPATH": str(REPO)})  # fmt: skip
-    kill_run_with_workers(process, lambda: len(complete_lines(out)) if (out / EPISODES_FILE).exists() else 0, 2,
-                          tmp_path / "killed.log")  # fmt: skip
+    process = subprocess.Popen(
+        validate_command(task_files, out),
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+    )
+    kill_run_with_workers(
+        process, lambda: len(complete_lines(out)) if (out / EPISODES_FILE).exists() else 0, 2, tmp_path / "killed.log"
+    )
     before = complete_lines(out)
     assert 2 <= len(before) < 2 * SEEDS * len(TASKS)
 

@@ -86,8 +86,13 @@ def test_settings_from_text_and_dict():
     assert bare.ranges()["lighting"]["intensity"] == [0.05, 3.0]
     assert set(bare.ranges()["lighting"]["color"]) == set(LIGHT_COLORS)
     dim = Variations.create("lighting=dim")  # a condition: the other parameters keep the scene's values
-    assert dim.ranges()["lighting"] == {"intensity": [0.01, 0.01], "environment": [0.1, 0.1], "color": ["white"],
-                                        "direction": ["key"], "ambient": [0.0, 0.0]}  # fmt: skip
+    assert dim.ranges()["lighting"] == {
+        "intensity": [0.01, 0.01],
+        "environment": [0.1, 0.1],
+        "color": ["white"],
+        "direction": ["key"],
+        "ambient": [0.0, 0.0],
+    }
     objects = Variations.create("objects=0.2")
     assert objects.ranges()["objects"] == {"xy": [-0.2, 0.2], "yaw": [0.0, 0.0], "names": "all"}
     mixed = Variations.create({"objects": 0.2, "lighting": {"intensity": [0.5, 2]}, "background": "city/park"})
@@ -101,16 +106,19 @@ def test_settings_from_text_and_dict():
     assert not Variations.create(None) and not Variations.create("") and not Variations.create({})
 
 
-@pytest.mark.parametrize(("text", "words"), [
-    ("lightning", ["unknown axis 'lightning'", "Did you mean 'lighting'"]),
-    ("lighting.intensty=2", ["'intensty' is not a parameter of lighting", "'intensity'"]),
-    ("lighting=candle", ["lighting takes a condition", "dim", "lighting.PARAM=VALUE"]),
-    ("objects=far", ["expected a number (0.2) or a range (0.1:0.3)", "'far'"]),
-    ("objects.xy=0.3:0.1", ["is empty", "LOW <= HIGH"]),
-    ("objects=0.9", ["must stay within -0.5..0.5 m"]),
-    ("background=citty", ["'citty' is not one of the background names", "Did you mean 'city'"]),
-    ("table=", ["no value after '='"]),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("lightning", ["unknown axis 'lightning'", "Did you mean 'lighting'"]),
+        ("lighting.intensty=2", ["'intensty' is not a parameter of lighting", "'intensity'"]),
+        ("lighting=candle", ["lighting takes a condition", "dim", "lighting.PARAM=VALUE"]),
+        ("objects=far", ["expected a number (0.2) or a range (0.1:0.3)", "'far'"]),
+        ("objects.xy=0.3:0.1", ["is empty", "LOW <= HIGH"]),
+        ("objects=0.9", ["must stay within -0.5..0.5 m"]),
+        ("background=citty", ["'citty' is not one of the background names", "Did you mean 'city'"]),
+        ("table=", ["no value after '='"]),
+    ],
+)
 def test_bad_settings_say_what_and_how_to_fix(text, words):
     with pytest.raises(VariationError) as error:
         Variations.create(text)
@@ -310,8 +318,11 @@ def test_restyle_recolours_procedural_and_tints_image_textured_objects():
         _objs = [actor]
 
     restyle(Wrapped, butter, "blue", "own")  # an image texture is kept and tinted
-    materials = [p.material for s in actor.find_component_by_type(sapien.render.RenderBodyComponent).render_shapes
-                 for p in s.parts]  # fmt: skip
+    materials = [
+        p.material
+        for s in actor.find_component_by_type(sapien.render.RenderBodyComponent).render_shapes
+        for p in s.parts
+    ]
     assert all(np.allclose(m.base_color[:3], COLOR_NAMES["blue"]) for m in materials)
     restyle(Wrapped, butter, "red", "plastic")  # a generated texture replaces it
     assert all(m.base_color_texture.filename == "" or m.base_color_texture.filename is None for m in materials)
@@ -329,8 +340,16 @@ def test_same_seed_same_parameters_and_images_fresh_or_reused(env):
     fresh = observe(fresh_env, ALL_AXES, seed=7)
     fresh_env.close()
     assert reused["fields"] == fresh["fields"]
-    assert {"background", "table_material", "light_intensity", "obj_bowl_dx", "robot_joint1_offset",
-            "cam_wrist_dyaw", "image_noise_std", "distractor_banana_texture"} <= set(fresh["fields"])  # fmt: skip
+    assert {
+        "background",
+        "table_material",
+        "light_intensity",
+        "obj_bowl_dx",
+        "robot_joint1_offset",
+        "cam_wrist_dyaw",
+        "image_noise_std",
+        "distractor_banana_texture",
+    } <= set(fresh["fields"])
     for name in fresh["images"]:
         assert np.array_equal(reused["images"][name], fresh["images"][name]), name
     assert all(torch.equal(reused["positions"][n], fresh["positions"][n]) for n in fresh["positions"])
@@ -347,8 +366,25 @@ def test_variations_need_one_environment():
 @pytest.mark.slow
 def test_suite_runs_one_folder_per_condition_and_lines_carry_the_parameters(tmp_path):
     out = tmp_path / "suite"
-    args = [ROBOLAB, "eval", "--policy", "random", "--task", TASK, "--episodes", "2", "--max-steps", "2", "--quiet",
-            "--suite", "objects:default/20cm", "--vary", "robot=0.05", "--out", str(out)]  # fmt: skip
+    args = [
+        ROBOLAB,
+        "eval",
+        "--policy",
+        "random",
+        "--task",
+        TASK,
+        "--episodes",
+        "2",
+        "--max-steps",
+        "2",
+        "--quiet",
+        "--suite",
+        "objects:default/20cm",
+        "--vary",
+        "robot=0.05",
+        "--out",
+        str(out),
+    ]
     run = subprocess.run(args, capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stderr
     plain, moved = read_results(out / "default"), read_results(out / "20cm")
@@ -365,19 +401,49 @@ def test_suite_runs_one_folder_per_condition_and_lines_carry_the_parameters(tmp_
     table = (out / "suite.md").read_text()
     assert "| task | default | 20cm |" in table and "all tasks" in table and TASK in table
     assert "obj_bowl_dx" in (out / "20cm" / "tasks" / f"{TASK}.csv").read_text().splitlines()[0]
-    again = [ROBOLAB, "eval", "--policy", "random", "--task", TASK, "--episodes", "1", "--max-steps", "2", "--quiet",
-             "--out", str(out / "20cm")]  # fmt: skip
+    again = [
+        ROBOLAB,
+        "eval",
+        "--policy",
+        "random",
+        "--task",
+        TASK,
+        "--episodes",
+        "1",
+        "--max-steps",
+        "2",
+        "--quiet",
+        "--out",
+        str(out / "20cm"),
+    ]
     mixed = subprocess.run(again, capture_output=True, text=True, timeout=600)
     assert mixed.returncode == 2 and "give another --out" in mixed.stderr
-    bad = subprocess.run([ROBOLAB, "eval", "--task", TASK, "--vary", "lightning", "--out", str(tmp_path / "x")],
-                         capture_output=True, text=True, timeout=600)  # fmt: skip
+    bad = subprocess.run(
+        [ROBOLAB, "eval", "--task", TASK, "--vary", "lightning", "--out", str(tmp_path / "x")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert bad.returncode == 2 and "unknown axis 'lightning'" in bad.stderr
 
 
 def test_old_result_lines_read_without_variation_fields(tmp_path):
-    old = {"task": "BananaInBowl", "instruction_variant": "default", "instruction": "x", "robot": "droid",
-           "policy": "random", "seed": 0, "success": False, "score": 0.0, "progress": 0.0, "steps": 1,
-           "max_steps": 1, "success_step": None, "wall_seconds": 0.1, "version": 1}  # fmt: skip
+    old = {
+        "task": "BananaInBowl",
+        "instruction_variant": "default",
+        "instruction": "x",
+        "robot": "droid",
+        "policy": "random",
+        "seed": 0,
+        "success": False,
+        "score": 0.0,
+        "progress": 0.0,
+        "steps": 1,
+        "max_steps": 1,
+        "success_step": None,
+        "wall_seconds": 0.1,
+        "version": 1,
+    }
     (tmp_path / "episodes.jsonl").write_text(json.dumps(old) + "\n")
     (result,) = read_results(tmp_path)
     assert isinstance(result, EpisodeResult)

@@ -35,15 +35,28 @@ class ModelServer(ServerProcess):
     """tests/vla_eval_model_server.py serving one of our policies; `url` is where it listens."""
 
     def __init__(self, *args: str) -> None:
-        super().__init__([sys.executable, str(TESTS / "vla_eval_model_server.py"), *args],
-                         ready="vla-eval model server:")  # fmt: skip
+        super().__init__(
+            [sys.executable, str(TESTS / "vla_eval_model_server.py"), *args], ready="vla-eval model server:"
+        )
         self.url = self.lines[-1].split()[-1]
 
 
 def vla_eval_run(server: ModelServer, out: Path, *overrides: str) -> dict:
     """`vla-eval run` with the shipped config against `server`, one task; returns the aggregate result."""
-    command = [str(VLA_EVAL), "run", "-c", str(CONFIG), "--no-docker", "--server-url", server.url, "--output-dir",
-               str(out), "--param", f"tasks=[{TASK}]", *overrides]  # fmt: skip
+    command = [
+        str(VLA_EVAL),
+        "run",
+        "-c",
+        str(CONFIG),
+        "--no-docker",
+        "--server-url",
+        server.url,
+        "--output-dir",
+        str(out),
+        "--param",
+        f"tasks=[{TASK}]",
+        *overrides,
+    ]
     done = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout[-4000:] + done.stderr[-4000:]
     aggregate = json.loads((out / "RoboLab-120_aggregate.json").read_text(encoding="utf-8"))
@@ -60,7 +73,12 @@ def assert_same_episode(episode: dict, result) -> None:
     """A vla-eval episode and a `robolab eval` result of the same task and seed end the same way."""
     metrics = episode["metrics"]
     assert (metrics["success"], metrics["score"], metrics["progress"], metrics["steps"], metrics["success_step"]) == (
-        result.success, result.score, result.progress, result.steps, result.success_step)  # fmt: skip
+        result.success,
+        result.score,
+        result.progress,
+        result.steps,
+        result.success_step,
+    )
     assert episode["steps"] == result.steps  # vla-eval's own step count
     assert metrics["seed"] == result.seed and metrics["events"] == result.events
     assert {key: metrics[key] for key in result.metrics} == result.metrics
@@ -79,13 +97,17 @@ def random_server(tmp_path_factory):
 
 @pytest.mark.slow
 def test_oracle_actions_replayed_through_vla_eval_end_as_under_robolab_eval(tmp_path):
-    oracle = run_evaluation(make_policy("oracle"), EvalConfig(tasks=(TASK,), episodes=1, first_seed=0,
-                                                              save_actions=True),
-                            tmp_path / "oracle", show_progress=False)[0]  # fmt: skip
+    oracle = run_evaluation(
+        make_policy("oracle"),
+        EvalConfig(tasks=(TASK,), episodes=1, first_seed=0, save_actions=True),
+        tmp_path / "oracle",
+        show_progress=False,
+    )[0]
     assert oracle.error is None and oracle.success and oracle.steps < load_task(TASK).max_episode_steps
     log = tmp_path / "served.jsonl"
-    server = ModelServer("--policy", "replay", "--replay-from", str(tmp_path / "oracle"), "--no-images",
-                         "--log", str(log))  # fmt: skip
+    server = ModelServer(
+        "--policy", "replay", "--replay-from", str(tmp_path / "oracle"), "--no-images", "--log", str(log)
+    )
     try:
         aggregate = vla_eval_run(server, tmp_path / "vla-eval", "--benchmark-field", "episodes_per_task=1")
     finally:
@@ -101,20 +123,36 @@ def test_oracle_actions_replayed_through_vla_eval_end_as_under_robolab_eval(tmp_
 
 @pytest.mark.slow
 def test_random_policy_plays_a_full_episode_through_vla_eval(tmp_path, random_server):
-    local = run_evaluation(make_policy("random"), EvalConfig(tasks=(TASK,), episodes=1, first_seed=3),
-                           tmp_path / "robolab", show_progress=False)[0]  # fmt: skip
+    local = run_evaluation(
+        make_policy("random"),
+        EvalConfig(tasks=(TASK,), episodes=1, first_seed=3),
+        tmp_path / "robolab",
+        show_progress=False,
+    )[0]
     assert local.error is None and local.steps == load_task(TASK).max_episode_steps  # the whole 50 s
-    aggregate = vla_eval_run(random_server, tmp_path / "vla-eval", "--param", "seed=3",
-                             "--benchmark-field", "episodes_per_task=1")  # fmt: skip
+    aggregate = vla_eval_run(
+        random_server, tmp_path / "vla-eval", "--param", "seed=3", "--benchmark-field", "episodes_per_task=1"
+    )
     assert_same_episode(aggregate["tasks"][0]["episodes"][0], local)
 
 
 @pytest.mark.slow
 def test_live_mode_sends_droid_images_and_seeds_episodes_in_turn(tmp_path, random_server):
     start = len(served(random_server.log)) if random_server.log.exists() else 0
-    aggregate = vla_eval_run(random_server, tmp_path / "vla-eval", "--param", "seed=3", "--param", "images=true",
-                             "--benchmark-field", "mode=live", "--benchmark-field", "max_steps=6",
-                             "--benchmark-field", "episodes_per_task=2")  # fmt: skip
+    aggregate = vla_eval_run(
+        random_server,
+        tmp_path / "vla-eval",
+        "--param",
+        "seed=3",
+        "--param",
+        "images=true",
+        "--benchmark-field",
+        "mode=live",
+        "--benchmark-field",
+        "max_steps=6",
+        "--benchmark-field",
+        "episodes_per_task=2",
+    )
     assert aggregate["mode"] == "live"
     episodes = aggregate["tasks"][0]["episodes"]
     assert [(e["steps"], e["metrics"]["steps"], e["metrics"]["seed"]) for e in episodes] == [(6, 6, 3), (6, 6, 4)]
@@ -147,9 +185,14 @@ def test_tasks_conditions_and_bad_params():
     longest = max(spec.max_episode_steps for spec in specs[:2])
     assert RoboLabBenchmark(tasks=[TASK, "PickDrill"]).get_metadata()["max_steps"] == longest
     assert RoboLabBenchmark(tasks=[TASK, "PickDrill"], max_steps=40).get_metadata()["max_steps"] == 40
-    bad = (({"instruction": "odd"}, "params.instruction"), ({"seed": "1"}, "params.seed"),
-           ({"max_steps": 0}, "params.max_steps"), ({"tag": [""]}, "params.tag"),
-           ({"suite": ["lighting"]}, "params.suite"), ({"tasks": [TASK, TASK]}, "given twice"))  # fmt: skip
+    bad = (
+        ({"instruction": "odd"}, "params.instruction"),
+        ({"seed": "1"}, "params.seed"),
+        ({"max_steps": 0}, "params.max_steps"),
+        ({"tag": [""]}, "params.tag"),
+        ({"suite": ["lighting"]}, "params.suite"),
+        ({"tasks": [TASK, TASK]}, "given twice"),
+    )
     for params, field in bad:
         with pytest.raises(RoboLabError, match=field):
             RoboLabBenchmark(**{"tasks": TASK, **params})

@@ -35,8 +35,9 @@ from robolab_ms.policies.server import PolicySession, _openpi_observation
 class PolicyModelServer(PredictModelServer):
     """Serves one of our policies to vla-eval: one action per observation."""
 
-    def __init__(self, policy: str, replay_from: str | None = None, images: bool = True,
-                 log: str | None = None) -> None:  # fmt: skip
+    def __init__(
+        self, policy: str, replay_from: str | None = None, images: bool = True, log: str | None = None
+    ) -> None:
         super().__init__()
         self.policy = make_policy(policy, PolicyOptions(replay_from=Path(replay_from) if replay_from else None))
         self.images, self.log = images, Path(log) if log else None

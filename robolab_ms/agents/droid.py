@@ -61,15 +61,25 @@ class DroidPandaRobotiq(BaseAgent):
     @property
     def _controller_configs(self) -> dict:
         arm = PDJointPosControllerConfig(
-            self.arm_joint_names, lower=None, upper=None, stiffness=ARM_STIFFNESS, damping=ARM_DAMPING,
-            force_limit=list(model.ARM_EFFORT), normalize_action=False,
-        )  # fmt: skip
+            self.arm_joint_names,
+            lower=None,
+            upper=None,
+            stiffness=ARM_STIFFNESS,
+            damping=ARM_DAMPING,
+            force_limit=list(model.ARM_EFFORT),
+            normalize_action=False,
+        )
         left, right = model.DRIVEN_GRIPPER_JOINTS
         gripper = PDJointPosMimicControllerConfig(
-            list(model.DRIVEN_GRIPPER_JOINTS), lower=0.0, upper=model.GRIPPER_CLOSED_RAD,
-            stiffness=GRIPPER_STIFFNESS, damping=GRIPPER_DAMPING, force_limit=GRIPPER_FORCE_LIMIT,
-            normalize_action=False, mimic={right: dict(joint=left)},
-        )  # fmt: skip
+            list(model.DRIVEN_GRIPPER_JOINTS),
+            lower=0.0,
+            upper=model.GRIPPER_CLOSED_RAD,
+            stiffness=GRIPPER_STIFFNESS,
+            damping=GRIPPER_DAMPING,
+            force_limit=GRIPPER_FORCE_LIMIT,
+            normalize_action=False,
+            mimic={right: dict(joint=left)},
+        )
         passive = PassiveControllerConfig(list(model.PASSIVE_GRIPPER_JOINTS), damping=0.0, friction=0.0)
         return deepcopy_dict(dict(pd_joint_pos=dict(arm=arm, gripper=gripper, gripper_passive=passive)))
 

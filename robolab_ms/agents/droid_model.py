@@ -88,8 +88,12 @@ def _panda_arm() -> list[ET.Element]:
             if name in ARM_JOINTS:
                 i = ARM_JOINTS.index(name)
                 limit = element.find("limit")
-                limit.attrib.update(lower=str(ARM_LOWER[i]), upper=str(ARM_UPPER[i]),
-                                    effort=str(ARM_EFFORT[i]), velocity=str(ARM_VELOCITY[i]))  # fmt: skip
+                limit.attrib.update(
+                    lower=str(ARM_LOWER[i]),
+                    upper=str(ARM_UPPER[i]),
+                    effort=str(ARM_EFFORT[i]),
+                    velocity=str(ARM_VELOCITY[i]),
+                )
             elements.append(element)
     return elements
 
@@ -129,7 +133,9 @@ def _fixed_joint(name: str, parent: str, child: str, xyz: tuple, rpy: tuple = (0
 
 def _coupling() -> list[ET.Element]:
     """The coupling disc (visual mesh from airo-models, a cylinder for collisions), the gripper mount and the TCP."""
-    mesh = package_dir("airo_models") / "grippers" / "robotiq_2f_85" / "meshes" / "visual" / "robotiq_gripper_coupling.obj"
+    mesh = (
+        package_dir("airo_models") / "grippers" / "robotiq_2f_85" / "meshes" / "visual" / "robotiq_gripper_coupling.obj"
+    )
     link = ET.Element("link", name=COUPLING_LINK)
     inertial = ET.SubElement(link, "inertial")
     ET.SubElement(inertial, "mass", value="0.1")
@@ -182,8 +188,11 @@ def linkage_anchors() -> tuple[tuple[float, float, float], tuple[float, float, f
     (outer knuckle pivot -> inner finger pivot) from its own pivot, which seen from the inner finger pivot is
     (outer knuckle pivot -> inner knuckle pivot); both read off the right side's joint origins at zero angle.
     """
-    origin = {joint.get("name"): [float(v) for v in joint.find("origin").get("xyz").split()]
-              for joint in _robotiq() if joint.tag == "joint"}  # fmt: skip
+    origin = {
+        joint.get("name"): [float(v) for v in joint.find("origin").get("xyz").split()]
+        for joint in _robotiq()
+        if joint.tag == "joint"
+    }
     outer_to_finger = [a + b for a, b in zip(origin["right_outer_finger_joint"], origin["right_inner_finger_joint"])]
     outer_to_inner = [b - a for a, b in zip(origin["right_outer_knuckle_joint"], origin["right_inner_knuckle_joint"])]
     return tuple(outer_to_finger), tuple(outer_to_inner)

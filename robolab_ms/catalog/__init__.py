@@ -17,5 +17,14 @@ from robolab_ms.catalog.schema import (
     user_catalog_files,
 )
 
-__all__ = ["COLOR_NAMES", "DROID_GRIPPER_OPENING", "OBJECT_CLASSES", "Catalog", "CatalogObject", "load_catalog",
-           "narrowest_width", "read_catalog", "user_catalog_files"]  # fmt: skip
+__all__ = [
+    "COLOR_NAMES",
+    "DROID_GRIPPER_OPENING",
+    "OBJECT_CLASSES",
+    "Catalog",
+    "CatalogObject",
+    "load_catalog",
+    "narrowest_width",
+    "read_catalog",
+    "user_catalog_files",
+]

@@ -124,8 +124,11 @@ def survey_mesh(path: str | Path, scale: float = 1.0, up: str | None = None, all
     if not path.is_file():
         raise MeshError(path, "does not exist" if not path.exists() else "is not a file", "Check the path")
     if suffix not in MESH_SUFFIXES:
-        raise MeshError(path, f"has the suffix '{path.suffix}', not one of {', '.join(MESH_SUFFIXES)}",
-                        "Export it as OBJ, GLB or STL (Blender: File > Export)")  # fmt: skip
+        raise MeshError(
+            path,
+            f"has the suffix '{path.suffix}', not one of {', '.join(MESH_SUFFIXES)}",
+            "Export it as OBJ, GLB or STL (Blender: File > Export)",
+        )
     if path.stat().st_size == 0:
         raise MeshError(path, "is empty (0 bytes)", "Export the mesh again from your modelling tool")
     if not (0 < scale < 1e6):
@@ -136,17 +139,23 @@ def survey_mesh(path: str | Path, scale: float = 1.0, up: str | None = None, all
     try:
         loaded = trimesh.load(str(path), force="mesh", process=False)
     except Exception as error:  # noqa: BLE001 - any parser failure means the file cannot be used
-        raise MeshError(path, f"cannot be read as a {suffix[1:].upper()} mesh ({type(error).__name__}: {error})",
-                        "Check that the file is complete; open it in a mesh tool (Blender, MeshLab) and export it "
-                        "again") from None  # fmt: skip
+        raise MeshError(
+            path,
+            f"cannot be read as a {suffix[1:].upper()} mesh ({type(error).__name__}: {error})",
+            "Check that the file is complete; open it in a mesh tool (Blender, MeshLab) and export it again",
+        ) from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise MeshError(path, f"holds no triangles (it is not a {suffix[1:].upper()} mesh trimesh can read, or has "
-                        "vertices only)", "Export the object's surface as a triangle mesh")  # fmt: skip
+        raise MeshError(
+            path,
+            f"holds no triangles (it is not a {suffix[1:].upper()} mesh trimesh can read, or has vertices only)",
+            "Export the object's surface as a triangle mesh",
+        )
     transform = MeshTransform(scale=(scale,) * 3, rotation_deg=tuple(UP_ROTATIONS[up]))
     vertices = transform.apply(np.asarray(loaded.vertices, dtype=np.float64), translate=False)
     if not np.isfinite(vertices).all():
-        raise MeshError(path, "has vertices that are not finite numbers (NaN or infinity)",
-                        "Repair or export the mesh again")  # fmt: skip
+        raise MeshError(
+            path, "has vertices that are not finite numbers (NaN or infinity)", "Repair or export the mesh again"
+        )
     survey = MeshSurvey(path, np.zeros(3), None, len(loaded.faces), False)
     _check_shape(survey, np.ptp(vertices[np.unique(np.asarray(loaded.faces))], axis=0), scale)
     geometry, survey.repairs = repaired_surface(vertices, np.asarray(loaded.faces))  # as coacd will get it
@@ -154,13 +163,19 @@ def survey_mesh(path: str | Path, scale: float = 1.0, up: str | None = None, all
         survey.closed = True
         survey.volume = abs(float(geometry.volume))
         if survey.volume < MIN_VOLUME:
-            raise MeshError(path, f"encloses no volume ({survey.volume:.2e} m^3): it is degenerate",
-                            "A catalog object must be a solid; export the object's closed outer surface")  # fmt: skip
+            raise MeshError(
+                path,
+                f"encloses no volume ({survey.volume:.2e} m^3): it is degenerate",
+                "A catalog object must be a solid; export the object's closed outer surface",
+            )
     elif not allow_open:
-        raise MeshError(path, "is not a closed surface, and trimesh's repairs did not close it: "
-                        f"{_edge_report(geometry)}", "Close it in a mesh tool (Blender: Select > All by Trait > "
-                        "Non Manifold, then fill the holes; MeshLab: Close Holes), or pass --allow-open to let "
-                        "coacd's preprocessing close it")  # fmt: skip
+        raise MeshError(
+            path,
+            f"is not a closed surface, and trimesh's repairs did not close it: {_edge_report(geometry)}",
+            "Close it in a mesh tool (Blender: Select > All by Trait > "
+            "Non Manifold, then fill the holes; MeshLab: Close Holes), or pass --allow-open to let "
+            "coacd's preprocessing close it",
+        )
     else:
         survey.repairs.append(f"left open (--allow-open): {_edge_report(geometry)}")
     survey.textured, survey.colour = _appearance(loaded, path)
@@ -180,9 +195,12 @@ def _check_shape(survey: MeshSurvey, extents: np.ndarray, scale: float) -> None:
     largest = float(extents.max())
     if largest <= 0 or float(extents.min()) < MIN_THICKNESS * largest:
         axis = "xyz"[int(extents.argmin())]
-        raise MeshError(survey.path, f"is flat: it has no thickness along {axis} (extents {_metres(extents)}), so it "
-                        "encloses no volume", "A catalog object must be a solid: give the surface a thickness "
-                        "(Blender: Solidify modifier) and export it again")  # fmt: skip
+        raise MeshError(
+            survey.path,
+            f"is flat: it has no thickness along {axis} (extents {_metres(extents)}), so it encloses no volume",
+            "A catalog object must be a solid: give the surface a thickness "
+            "(Blender: Solidify modifier) and export it again",
+        )
     if MIN_SIZE <= largest <= MAX_SIZE:
         return
     too = "large" if largest > MAX_SIZE else "small"
@@ -190,19 +208,26 @@ def _check_shape(survey: MeshSurvey, extents: np.ndarray, scale: float) -> None:
     if fits:
         fix = "If the file is in " + ", or in ".join(f"{unit} pass --scale {scale * factor:g}" for unit, factor in fits)
     else:
-        fix = (f"Pass --scale with the metres per unit of the file, e.g. --scale {scale * 0.1 / largest:.3g} for an "
-               "object 10 cm across")
-    raise MeshError(survey.path, f"is too {too} for a table-top object: {largest:g} m across at --scale {scale:g} "
-                    f"(extents {_metres(extents)}; objects are {MIN_SIZE * 1000:g} mm to {MAX_SIZE:g} m)",
-                    fix)  # fmt: skip
+        fix = (
+            f"Pass --scale with the metres per unit of the file, e.g. --scale {scale * 0.1 / largest:.3g} for an "
+            "object 10 cm across"
+        )
+    raise MeshError(
+        survey.path,
+        f"is too {too} for a table-top object: {largest:g} m across at --scale {scale:g} "
+        f"(extents {_metres(extents)}; objects are {MIN_SIZE * 1000:g} mm to {MAX_SIZE:g} m)",
+        fix,
+    )
 
 
 def _edge_report(geometry) -> str:
     """How many edges border a hole and how many are shared by more than two triangles."""
     edges = np.sort(np.asarray(geometry.edges), axis=1)
     _, counts = np.unique(edges, axis=0, return_counts=True)
-    return (f"{int((counts == 1).sum())} edges border a hole and {int((counts > 2).sum())} are shared by more than "
-            "two triangles")  # fmt: skip
+    return (
+        f"{int((counts == 1).sum())} edges border a hole and {int((counts > 2).sum())} are shared by more than "
+        "two triangles"
+    )
 
 
 def _metres(extents: np.ndarray) -> str:
@@ -268,14 +293,18 @@ def _check_name(name: str, catalog_file: Path, replace: bool) -> None:
     own = read_catalog(catalog_file).objects if catalog_file.is_file() else {}
     if name in own:
         if not replace:
-            raise RoboLabError(f"catalog object '{name}' is already in {catalog_file}. Pass --replace to replace "
-                               "it, or choose another --name")  # fmt: skip
+            raise RoboLabError(
+                f"catalog object '{name}' is already in {catalog_file}. Pass --replace to replace "
+                "it, or choose another --name"
+            )
         return
     known = load_catalog()
     if name in known:
         where = known[name].folder or known.file
-        raise RoboLabError(f"catalog object '{name}' already exists (in {where}). Choose another --name; names are "
-                           "unique across the shipped catalog and every content folder")  # fmt: skip
+        raise RoboLabError(
+            f"catalog object '{name}' already exists (in {where}). Choose another --name; names are "
+            "unique across the shipped catalog and every content folder"
+        )
 
 
 def _default_mass(object_class: str, hulls: tuple[np.ndarray, ...]) -> float:
@@ -345,8 +374,10 @@ def add_object(
     from robolab_ms.catalog.meshes import read_hulls
 
     if object_class not in OBJECT_CLASSES:
-        raise RoboLabError(f"--class '{object_class}' is not an object class ({', '.join(OBJECT_CLASSES)}). "
-                           f"{did_you_mean(object_class, OBJECT_CLASSES)}")  # fmt: skip
+        raise RoboLabError(
+            f"--class '{object_class}' is not an object class ({', '.join(OBJECT_CLASSES)}). "
+            f"{did_you_mean(object_class, OBJECT_CLASSES)}"
+        )
     for colour in colors or []:
         if colour not in COLOR_NAMES:
             raise RoboLabError(f"--colors: '{colour}' is not a colour name. {did_you_mean(colour, COLOR_NAMES)}")
@@ -362,8 +393,10 @@ def add_object(
     start = time.perf_counter()
     survey = survey_mesh(mesh, scale, up, allow_open)
     seconds["survey"] = time.perf_counter() - start
-    progress(f"{survey.path.name}: {survey.faces} triangles, {_metres(survey.dimensions)}"
-             + (f"; repaired: {', '.join(survey.repairs)}" if survey.repairs else ""))  # fmt: skip
+    progress(
+        f"{survey.path.name}: {survey.faces} triangles, {_metres(survey.dimensions)}"
+        + (f"; repaired: {', '.join(survey.repairs)}" if survey.repairs else "")
+    )
 
     folder = catalog_file.parent
     mesh_folder = folder / "meshes" / name
@@ -391,9 +424,13 @@ def add_object(
             "colors": list(colors or [survey.colour or "grey"]),
             "mass": mass or 1.0,  # replaced below by the class density times the collision volume
             "friction": {"static": static, "dynamic": dynamic},
-            "source": {"kind": "file", "paths": [copies[0].relative_to(folder).as_posix()], "textured": survey.textured,
-                       "origin": origin or f"{TO_FILL}: where the mesh comes from (web address or author); added "
-                       f"from {source.name}"},  # fmt: skip
+            "source": {
+                "kind": "file",
+                "paths": [copies[0].relative_to(folder).as_posix()],
+                "textured": survey.textured,
+                "origin": origin
+                or f"{TO_FILL}: where the mesh comes from (web address or author); added from {source.name}",
+            },
             "transform": {"scale": scale, "rotation_deg": list(UP_ROTATIONS[up or DEFAULT_UP[suffix]])},
             "collision": {"method": "coacd"},
             "license": license or f"{TO_FILL}: the mesh's licence as its author gives it (e.g. CC-BY-4.0)",
@@ -407,9 +444,11 @@ def add_object(
         if mass is None:
             entry["mass"] = _default_mass(object_class, hulls)
             if not 0 < entry["mass"] <= MAX_MASS:
-                raise RoboLabError(f"{survey.path}: the {object_class} density {CLASS_DENSITY[object_class]:g} "
-                                   f"kg/m^3 gives {entry['mass']:g} kg, not between 0 and {MAX_MASS:g} kg. Give "
-                                   "--mass")  # fmt: skip
+                raise RoboLabError(
+                    f"{survey.path}: the {object_class} density {CLASS_DENSITY[object_class]:g} "
+                    f"kg/m^3 gives {entry['mass']:g} kg, not between 0 and {MAX_MASS:g} kg. Give "
+                    "--mass"
+                )
         data = load_yaml(catalog_file) if catalog_file.is_file() else {"version": CATALOG_VERSION, "objects": {}}
         data["objects"][name] = entry
         header = building.file_header(catalog_file) if catalog_file.is_file() else USER_HEADER
@@ -420,8 +459,10 @@ def add_object(
         result = check_object(added[name])
         seconds["check"] = time.perf_counter() - start
         if not result.passed:
-            raise RoboLabError(f"{survey.path}: as catalog object '{name}' it fails the SAPIEN check: "
-                               f"{'; '.join(result.problems)}. {_check_fix(result.problems)}")  # fmt: skip
+            raise RoboLabError(
+                f"{survey.path}: as catalog object '{name}' it fails the SAPIEN check: "
+                f"{'; '.join(result.problems)}. {_check_fix(result.problems)}"
+            )
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         undo.restore()
@@ -430,13 +471,28 @@ def add_object(
     sheet_file = None
     if sheet:
         start = time.perf_counter()
-        sheet_file = contact_sheet(added, folder / SHEET_FILE, tile=160, columns=min(6, len(added)),
-                                   progress=lambda line: None)  # fmt: skip
+        sheet_file = contact_sheet(
+            added, folder / SHEET_FILE, tile=160, columns=min(6, len(added)), progress=lambda line: None
+        )
         seconds["sheet"] = time.perf_counter() - start
     given = {"source.origin": entry["source"]["origin"], "license": entry["license"]}
     to_fill = [f"objects.{name}.{key}" for key, value in given.items() if value.startswith(TO_FILL)]
-    return AddResult(name, catalog_file, copies, hull_file, sheet_file, survey, entry["dimensions"], entry["mass"],
-                     mass is None, len(hulls), notes["coacd_cached"], seconds, result.measured, to_fill)  # fmt: skip
+    return AddResult(
+        name,
+        catalog_file,
+        copies,
+        hull_file,
+        sheet_file,
+        survey,
+        entry["dimensions"],
+        entry["mass"],
+        mass is None,
+        len(hulls),
+        notes["coacd_cached"],
+        seconds,
+        result.measured,
+        to_fill,
+    )
 
 
 def _forget_files() -> None:
@@ -459,8 +515,10 @@ def _check_fix(problems: list[str]) -> str:
     if "density" in text:
         return "Give --mass in kg"
     if "SAPIEN mass" in text:
-        return ("PhysX cooked the convex pieces with another volume, as it does for very thin pieces: close the "
-                "surface or give its walls a thickness, and export it again")
+        return (
+            "PhysX cooked the convex pieces with another volume, as it does for very thin pieces: close the "
+            "surface or give its walls a thickness, and export it again"
+        )
     return "Look at the mesh in a mesh tool; the problems above say what SAPIEN measured"
 
 

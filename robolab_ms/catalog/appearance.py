@@ -37,7 +37,7 @@ def scene_renders(scene: Any) -> bool:
     if hasattr(scene, "can_render"):
         return bool(scene.can_render())
     try:
-        scene.render_system
+        _ = scene.render_system
     except RuntimeError:  # SAPIEN: "no system with name [render] is added to scene"
         return False
     return True
@@ -153,8 +153,9 @@ def render_material(look: Look, face: int = 0) -> sapien.render.RenderMaterial:
     """A SAPIEN material with the look's generated texture (the base colour is in the texture)."""
     import sapien
 
-    material = sapien.render.RenderMaterial(base_color=[1.0, 1.0, 1.0, 1.0], roughness=look.roughness,
-                                            metallic=look.metallic)  # fmt: skip
+    material = sapien.render.RenderMaterial(
+        base_color=[1.0, 1.0, 1.0, 1.0], roughness=look.roughness, metallic=look.metallic
+    )
     material.base_color_texture = render_texture(look.kind, _quantise(look.rgb), face)
     return material
 
@@ -310,7 +311,9 @@ def make_texture(kind: str, rgb: tuple[float, float, float], face: int = 0) -> n
         accent = _to_srgb(np.asarray(rgb) * 0.6 + np.asarray((0.9, 0.75, 0.2)) * 0.4)
         logo = (xx - 0.5) ** 2 + (yy - 0.3) ** 2 < 0.008
         image[logo] = accent
-        _text_bars(image, (x0 + 6, int(0.45 * n), x1 - 6, y1 - 4), (35, 35, 40) if kind == "print" else (230, 225, 210), rng)
+        _text_bars(
+            image, (x0 + 6, int(0.45 * n), x1 - 6, y1 - 4), (35, 35, 40) if kind == "print" else (230, 225, 210), rng
+        )
         image[int(0.75 * n) : int(0.8 * n), int(0.12 * n) : int(0.6 * n)] = dark
         return image
     return image
@@ -330,9 +333,12 @@ class TriangleMesh:
         import sapien
 
         return sapien.render.RenderShapeTriangleMesh(
-            self.vertices.astype(np.float32), self.triangles.astype(np.uint32), self.normals.astype(np.float32),
-            self.uvs.astype(np.float32), material,
-        )  # fmt: skip
+            self.vertices.astype(np.float32),
+            self.triangles.astype(np.uint32),
+            self.normals.astype(np.float32),
+            self.uvs.astype(np.float32),
+            material,
+        )
 
 
 @lru_cache(maxsize=None)
@@ -351,7 +357,9 @@ def cylinder_mesh(radius: float, half_length: float, segments: int = 32) -> Tria
     offset = 2 * (segments + 1)
     for side in (-1, 1):  # caps: centre and ring
         centre = np.array([[side * half_length, 0.0, 0.0]])
-        vertices.append(np.concatenate([centre, np.column_stack([np.full(segments + 1, side * half_length), radius * ring])]))
+        vertices.append(
+            np.concatenate([centre, np.column_stack([np.full(segments + 1, side * half_length), radius * ring])])
+        )
         normals.append(np.tile([side, 0.0, 0.0], (segments + 2, 1)))
         uvs.append(np.concatenate([[[0.5, 0.5]], 0.5 + 0.5 * ring]))
         if side > 0:
@@ -359,7 +367,9 @@ def cylinder_mesh(radius: float, half_length: float, segments: int = 32) -> Tria
         else:
             triangles.append(np.column_stack([np.full(segments, offset), offset + 2 + j, offset + 1 + j]))
         offset += segments + 2
-    return TriangleMesh(np.concatenate(vertices), np.concatenate(triangles), np.concatenate(normals), np.concatenate(uvs))
+    return TriangleMesh(
+        np.concatenate(vertices), np.concatenate(triangles), np.concatenate(normals), np.concatenate(uvs)
+    )
 
 
 @lru_cache(maxsize=None)
@@ -383,7 +393,9 @@ def box_mesh(half_size: tuple[float, float, float]) -> TriangleMesh:
             normals.append(np.tile(normal, (4, 1)))
             uvs.append(np.column_stack([corners[:, 0], 1 - corners[:, 1]]))
             triangles.append(np.array([[start, start + 1, start + 2], [start, start + 2, start + 3]]))
-    return TriangleMesh(np.concatenate(vertices), np.concatenate(triangles), np.concatenate(normals), np.concatenate(uvs))
+    return TriangleMesh(
+        np.concatenate(vertices), np.concatenate(triangles), np.concatenate(normals), np.concatenate(uvs)
+    )
 
 
 def plane_mesh(size_x: float, size_y: float, tile: float) -> TriangleMesh:

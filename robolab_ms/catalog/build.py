@@ -79,10 +79,14 @@ def file_digest(paths: list[Path]) -> str:
 def _fingerprint(name: str, entry: dict, folder: Path | None = None) -> str:
     source, transform = entry["source"], entry.get("transform", {})
     key = {
-        "name": name, "source": source, "scale": transform.get("scale", 1.0),
-        "rotation_deg": transform.get("rotation_deg", [0, 0, 0]), "collision": entry["collision"]["method"],
-        "coacd": COACD_PARAMS if entry["collision"]["method"] == "coacd" else None, "max_vertices": MAX_HULL_VERTICES,
-    }  # fmt: skip
+        "name": name,
+        "source": source,
+        "scale": transform.get("scale", 1.0),
+        "rotation_deg": transform.get("rotation_deg", [0, 0, 0]),
+        "collision": entry["collision"]["method"],
+        "coacd": COACD_PARAMS if entry["collision"]["method"] == "coacd" else None,
+        "max_vertices": MAX_HULL_VERTICES,
+    }
     if source["kind"] == "file":  # a user's file may change under the same name
         key["mesh_digest"] = file_digest(mesh_files(entry, folder))
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
@@ -164,8 +168,9 @@ def coacd_pieces(vertices: np.ndarray, faces: np.ndarray) -> tuple[list[np.ndarr
     return pieces, False
 
 
-def build_object(name: str, entry: dict, out_dir: Path, force: bool = False, folder: Path | None = None,
-                 notes: dict | None = None) -> bool:  # fmt: skip
+def build_object(
+    name: str, entry: dict, out_dir: Path, force: bool = False, folder: Path | None = None, notes: dict | None = None
+) -> bool:
     """Fill in one mesh entry's translation and dimensions and write its hull file; False when already current.
     `folder` is the catalog file's folder, where the paths of a `file` source start; `notes`, when given, receives
     `coacd_cached` (whether coacd's pieces came from the cache) for the coacd method."""
@@ -252,9 +257,13 @@ def build_catalog(
     data = load_yaml(catalog_file)
     objects = data.get("objects") if isinstance(data, dict) else None
     if not isinstance(objects, dict) or not all(isinstance(entry, dict) for entry in objects.values()):
-        raise SpecError(catalog_file, "objects", f"must be a mapping of object names to entries, got "
-                        f"{type(objects).__name__ if objects is not None else 'nothing'}",
-                        "Give a catalog file such as assets/catalog.yaml")  # fmt: skip
+        raise SpecError(
+            catalog_file,
+            "objects",
+            f"must be a mapping of object names to entries, got "
+            f"{type(objects).__name__ if objects is not None else 'nothing'}",
+            "Give a catalog file such as assets/catalog.yaml",
+        )
     for name in names or []:
         if name not in objects:
             raise UnknownNameError("catalog object", name, objects)
@@ -262,7 +271,7 @@ def build_catalog(
     report = BuildReport()
     header = file_header(catalog_file) or HEADER
     before = dump_catalog(data, header)
-    for name, entry in objects.items():
+    for entry in objects.values():
         if entry.get("source", {}).get("kind") == "procedural":
             _describe_procedural(entry)
     mesh_names = [name for name, entry in objects.items() if entry.get("source", {}).get("kind") in ("mesh", "file")]

@@ -160,7 +160,11 @@ def _collision_size(body) -> np.ndarray:
             half = np.full(3, shape.radius)
         else:  # capsule or cylinder along the local x axis
             axis = np.abs(rotation[:, 0])
-            radial = 1.0 if isinstance(shape, sapien.physx.PhysxCollisionShapeCapsule) else np.sqrt(np.clip(1 - axis**2, 0, 1))
+            radial = (
+                1.0
+                if isinstance(shape, sapien.physx.PhysxCollisionShapeCapsule)
+                else np.sqrt(np.clip(1 - axis**2, 0, 1))
+            )
             half = axis * shape.half_length + shape.radius * radial
         lows.append(centre - half)
         highs.append(centre + half)
@@ -185,8 +189,10 @@ def check_object(entry: CatalogObject, render: bool = True) -> CheckResult:
     error = float(np.max(np.abs(size - expected) / np.maximum(expected, SIZE_FLOOR)))
     result.measured["size_error"] = error
     if error > SIZE_TOLERANCE:
-        result.problems.append(f"collision size {np.round(size, 4).tolist()} differs from the catalog's "
-                               f"{np.round(expected, 4).tolist()} by {error:.0%} (> {SIZE_TOLERANCE:.0%})")  # fmt: skip
+        result.problems.append(
+            f"collision size {np.round(size, 4).tolist()} differs from the catalog's "
+            f"{np.round(expected, 4).tolist()} by {error:.0%} (> {SIZE_TOLERANCE:.0%})"
+        )
     result.measured["density"] = entry.density
     if not DENSITY_RANGE[0] <= entry.density <= DENSITY_RANGE[1]:
         result.problems.append(f"density {entry.density:.0f} kg/m^3 is outside {DENSITY_RANGE}: check the mass")
@@ -243,8 +249,9 @@ def _holds_small_object(entry: CatalogObject) -> bool:
     return bool(inside_xy and position[2] < high[2] + half)
 
 
-def check_catalog(catalog: Catalog, names: list[str] | None = None, render: bool = True,
-                  progress: Callable[[str], None] = print) -> list[CheckResult]:  # fmt: skip
+def check_catalog(
+    catalog: Catalog, names: list[str] | None = None, render: bool = True, progress: Callable[[str], None] = print
+) -> list[CheckResult]:
     """Check the named objects (all when None); reports each as it finishes."""
     names = names or catalog.names()
     results = []
@@ -259,8 +266,14 @@ def check_catalog(catalog: Catalog, names: list[str] | None = None, render: bool
 MIN_TILE = 16  # pixels: smaller tiles show nothing recognisable
 
 
-def contact_sheet(catalog: Catalog, out: Path, names: list[str] | None = None, tile: int = 112,
-                  columns: int = 16, progress: Callable[[str], None] = print) -> Path:  # fmt: skip
+def contact_sheet(
+    catalog: Catalog,
+    out: Path,
+    names: list[str] | None = None,
+    tile: int = 112,
+    columns: int = 16,
+    progress: Callable[[str], None] = print,
+) -> Path:
     """Render every object (or `names`) into one labelled grid image (PNG) at `out`."""
     from PIL import Image, ImageDraw, ImageFont
 
@@ -288,6 +301,7 @@ def contact_sheet(catalog: Catalog, out: Path, names: list[str] | None = None, t
     try:
         sheet.save(out, optimize=True)
     except OSError as error:
-        raise RoboLabError(f"--out {out}: cannot write the image ({error.strerror or error}); choose a file you can "
-                           "write") from None  # fmt: skip
+        raise RoboLabError(
+            f"--out {out}: cannot write the image ({error.strerror or error}); choose a file you can write"
+        ) from None
     return out

@@ -40,7 +40,9 @@ def package_file(module: str, relative: str) -> Path:
     """A file inside an installed package; a clear error when the package or the file is missing."""
     path = package_root(module) / relative
     if not path.is_file():
-        raise RoboLabError(f"'{relative}' is missing from the installed package '{module}'. Reinstall it ('make setup')")
+        raise RoboLabError(
+            f"'{relative}' is missing from the installed package '{module}'. Reinstall it ('make setup')"
+        )
     return path
 
 

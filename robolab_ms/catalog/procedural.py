@@ -191,9 +191,15 @@ def _upright_cylinder(radius: float, height: float, bottom: float, tint: int = 0
     return Part("cylinder", (radius, height / 2), (0.0, 0.0, bottom + height / 2), X_TO_Z, tint)
 
 
-def bottle(radius: float, height: float, neck_radius: float, neck_height: float, cap_height: float = 0.015,
-           square: bool = False) -> list[Part]:
-    """An upright bottle: a body (round, or square when `square`), a neck and a cap in the second colour."""  # fmt: skip
+def bottle(
+    radius: float,
+    height: float,
+    neck_radius: float,
+    neck_height: float,
+    cap_height: float = 0.015,
+    square: bool = False,
+) -> list[Part]:
+    """An upright bottle: a body (round, or square when `square`), a neck and a cap in the second colour."""
     body_height = height - neck_height - cap_height
     if square:
         parts = [Part("box", (radius, radius, body_height / 2), (0.0, 0.0, body_height / 2))]
@@ -207,8 +213,11 @@ def bottle(radius: float, height: float, neck_radius: float, neck_height: float,
 def can(radius: float, height: float, rim: float = 0.004) -> list[Part]:
     """An upright can: a body in the first colour with a thin lid and base in the second."""
     body = height - 2 * rim
-    return [_upright_cylinder(radius * 0.97, rim, 0.0, tint=1), _upright_cylinder(radius, body, rim),
-            _upright_cylinder(radius * 0.97, rim, rim + body, tint=1)]  # fmt: skip
+    return [
+        _upright_cylinder(radius * 0.97, rim, 0.0, tint=1),
+        _upright_cylinder(radius, body, rim),
+        _upright_cylinder(radius * 0.97, rim, rim + body, tint=1),
+    ]
 
 
 def carton(size: list[float], cap_radius: float = 0.0) -> list[Part]:
@@ -223,8 +232,15 @@ def ellipsoid_fruit(radius: float, length: float, stem_length: float = 0.0) -> l
     """An elongated fruit lying on its side (lemon, lime, avocado, potato): a capsule along x."""
     parts = [Part("capsule", (radius, length / 2), (0.0, 0.0, radius))]
     if stem_length > 0:
-        parts.append(Part("capsule", (max(radius * 0.08, 0.002), stem_length / 2),
-                          (length / 2 + radius + stem_length / 2, 0.0, radius), IDENTITY, 1))  # fmt: skip
+        parts.append(
+            Part(
+                "capsule",
+                (max(radius * 0.08, 0.002), stem_length / 2),
+                (length / 2 + radius + stem_length / 2, 0.0, radius),
+                IDENTITY,
+                1,
+            )
+        )
     return parts
 
 
@@ -240,12 +256,19 @@ def round_fruit(radius: float, stem_length: float = 0.0, flat: float = 0.0) -> l
     return parts
 
 
-def cup(top_radius: float, bottom_radius: float, height: float, wall: float = 0.005, handle: str = "none",
-        handle_length: float = 0.0, segments: int = 16) -> list[Part]:
+def cup(
+    top_radius: float,
+    bottom_radius: float,
+    height: float,
+    wall: float = 0.005,
+    handle: str = "none",
+    handle_length: float = 0.0,
+    segments: int = 16,
+) -> list[Part]:
     """An open vessel (mug, measuring cup, pitcher, pot, pail, jug) with an optional handle in the second colour.
 
     `handle`: none; side (a mug's loop); long (a straight grip, e.g. a measuring cup or pan); pair (two side grips,
-    a pot)."""  # fmt: skip
+    a pot)."""
     parts = bowl(top_radius, bottom_radius, height, wall, segments)
     grip = max(0.006, wall * 1.5)
     if handle == "side":
@@ -255,14 +278,17 @@ def cup(top_radius: float, bottom_radius: float, height: float, wall: float = 0.
             Part("box", (reach / 2, grip / 2, grip / 2), (x0 + reach / 2, 0.0, height * 0.8), IDENTITY, 1),
             Part("box", (reach / 2, grip / 2, grip / 2), (x0 + reach / 2, 0.0, height * 0.25), IDENTITY, 1),
             Part("box", (grip / 2, grip / 2, height * 0.3), (x0 + reach - grip / 2, 0.0, height * 0.525), IDENTITY, 1),
-        ]  # fmt: skip
+        ]
     elif handle == "long":
         reach = max(0.04, handle_length)
-        parts.append(Part("box", (reach / 2, grip, grip / 2), (top_radius + reach / 2, 0.0, height - grip), IDENTITY, 1))
+        parts.append(
+            Part("box", (reach / 2, grip, grip / 2), (top_radius + reach / 2, 0.0, height - grip), IDENTITY, 1)
+        )
     elif handle == "pair":
         for sign in (-1, 1):
-            parts.append(Part("box", (0.015, 0.025, grip / 2),
-                              (sign * (top_radius + 0.012), 0.0, height - grip), IDENTITY, 1))  # fmt: skip
+            parts.append(
+                Part("box", (0.015, 0.025, grip / 2), (sign * (top_radius + 0.012), 0.0, height - grip), IDENTITY, 1)
+            )
     elif handle != "none":
         raise TypeError(f"handle must be one of {', '.join(PARAM_CHOICES['handle'])}, got {handle!r}")
     return parts
@@ -281,14 +307,18 @@ def shelf(size: list[float], levels: int = 2, board: float = 0.015) -> list[Part
     return parts
 
 
-def rack(size: list[float], levels: int = 3, board: float = 0.015, post: float = 0.02, bottom: float = 0.0
-         ) -> list[Part]:  # fmt: skip
+def rack(
+    size: list[float], levels: int = 3, board: float = 0.015, post: float = 0.02, bottom: float = 0.0
+) -> list[Part]:
     """An open rack of outer size (x deep, y wide, z tall), open on every side: four corner posts and `levels`
     boards in the second colour, evenly spaced from the lowest (its underside `bottom` above the ground) to the
     highest (flush with the posts' tops). A wire shelf is such a rack with thin solid boards."""
     x, y, z = size
-    parts = [Part("box", (post / 2, post / 2, z / 2), (sx * (x - post) / 2, sy * (y - post) / 2, z / 2))
-             for sx in (-1, 1) for sy in (-1, 1)]  # fmt: skip
+    parts = [
+        Part("box", (post / 2, post / 2, z / 2), (sx * (x - post) / 2, sy * (y - post) / 2, z / 2))
+        for sx in (-1, 1)
+        for sy in (-1, 1)
+    ]
     spacing = (z - board - bottom) / (levels - 1) if levels > 1 else 0.0
     for level in range(levels):
         underside = z - board if levels == 1 else bottom + level * spacing
@@ -296,8 +326,9 @@ def rack(size: list[float], levels: int = 3, board: float = 0.015, post: float =
     return parts
 
 
-def utensil(length: float, head: str, head_size: float, handle_width: float = 0.012,
-            thickness: float = 0.006) -> list[Part]:
+def utensil(
+    length: float, head: str, head_size: float, handle_width: float = 0.012, thickness: float = 0.006
+) -> list[Part]:
     """A utensil lying flat: a handle along x and a head (spoon, fork, ladle, spatula, knife) in the second colour."""
     head_length = head_size * (2.2 if head in ("spoon", "knife") else 2.0)
     handle_length = length - head_length
@@ -307,15 +338,31 @@ def utensil(length: float, head: str, head_size: float, handle_width: float = 0.
         depth = thickness * (3.0 if head == "ladle" else 1.2)
         parts.append(Part("cylinder", (head_size, depth / 2), (centre, 0.0, depth / 2), X_TO_Z, 1))
     elif head == "fork":
-        parts.append(Part("box", (head_length * 0.15, head_size / 2, thickness / 2),
-                          (centre - head_length * 0.35, 0.0, thickness / 2), IDENTITY, 1))  # fmt: skip
+        parts.append(
+            Part(
+                "box",
+                (head_length * 0.15, head_size / 2, thickness / 2),
+                (centre - head_length * 0.35, 0.0, thickness / 2),
+                IDENTITY,
+                1,
+            )
+        )
         for tine in range(4):
             y = (tine - 1.5) * head_size / 4
-            parts.append(Part("box", (head_length * 0.35, head_size / 12, thickness / 2),
-                              (centre + head_length * 0.15, y, thickness / 2), IDENTITY, 1))  # fmt: skip
+            parts.append(
+                Part(
+                    "box",
+                    (head_length * 0.35, head_size / 12, thickness / 2),
+                    (centre + head_length * 0.15, y, thickness / 2),
+                    IDENTITY,
+                    1,
+                )
+            )
     elif head in ("spatula", "knife"):
         width = head_size if head == "spatula" else head_size * 0.5
-        parts.append(Part("box", (head_length / 2, width / 2, thickness / 4), (centre, 0.0, thickness / 4), IDENTITY, 1))
+        parts.append(
+            Part("box", (head_length / 2, width / 2, thickness / 4), (centre, 0.0, thickness / 4), IDENTITY, 1)
+        )
     else:
         raise TypeError(f"head must be one of {', '.join(PARAM_CHOICES['head'])}, got {head!r}")
     return parts
@@ -340,7 +387,7 @@ def drill(height: float = 0.22, length: float = 0.2) -> list[Part]:
         Part("box", (0.02, 0.016, grip_height / 2), (0.0, 0.0, battery[2] + grip_height / 2)),
         Part("cylinder", (body_radius, (length - 0.05) / 2), (length / 2 - 0.08, 0.0, height - body_radius)),
         Part("cylinder", (0.013, 0.025), (length - 0.055, 0.0, height - body_radius), IDENTITY, 1),
-    ]  # fmt: skip
+    ]
     return parts
 
 
@@ -373,7 +420,7 @@ def lizard(length: float = 0.24, width: float = 0.14, height: float = 0.135, bod
         _limb(head_radius, head_start, head_end),
         _limb(0.6 * body_radius, (hip[0] - 0.01, 0.0, hip[2] - 0.005), tail_mid),
         _limb(tail_radius * 0.8, tail_mid, tail_end),
-    ]  # fmt: skip
+    ]
     foot = width / 2 - leg_radius
     for x, z, reach in ((hip[0] + 0.01, hip[2], -0.012), (shoulder[0] - 0.01, shoulder[2], 0.012)):
         for side in (-1, 1):
@@ -392,10 +439,12 @@ def clamp(length: float = 0.16, jaw: float = 0.04) -> list[Part]:
     parts = []
     for sign in (-1, 1):
         rotation = axis_angle_quat((0, 0, 1), sign * 0.12)
-        parts.append(Part("box", (length * 0.35, 0.008, thickness / 2),
-                          (-length * 0.15, sign * 0.02, thickness / 2), rotation))  # fmt: skip
-        parts.append(Part("box", (jaw / 2, 0.01, thickness / 2), (length * 0.3, sign * 0.008, thickness / 2),
-                          IDENTITY, 1))  # fmt: skip
+        parts.append(
+            Part("box", (length * 0.35, 0.008, thickness / 2), (-length * 0.15, sign * 0.02, thickness / 2), rotation)
+        )
+        parts.append(
+            Part("box", (jaw / 2, 0.01, thickness / 2), (length * 0.3, sign * 0.008, thickness / 2), IDENTITY, 1)
+        )
     return parts
 
 

@@ -48,7 +48,6 @@ from robolab_ms.errors import RoboLabError, SpecError, UnknownNameError, did_you
 
 if TYPE_CHECKING:
     import sapien
-
     from mani_skill.envs.scene import ManiSkillScene
     from mani_skill.utils.structs import Actor
 
@@ -159,8 +158,9 @@ class CatalogObject:
         """Heights (object frame, lowest first) of the tops of the object's boards: its collision pieces that
         reach over at least half the object's extent along x and along y (a shelf's levels, a bin's floor)."""
         if self.parts:
-            boxes = [(np.asarray(p.position) - p.half_extent(), np.asarray(p.position) + p.half_extent())
-                     for p in self.parts]  # fmt: skip
+            boxes = [
+                (np.asarray(p.position) - p.half_extent(), np.asarray(p.position) + p.half_extent()) for p in self.parts
+            ]
         else:
             boxes = [(hull.min(axis=0), hull.max(axis=0)) for hull in self.hulls]
         extent = self.exact_bounds[1] - self.exact_bounds[0]
@@ -234,8 +234,9 @@ class CatalogObject:
         elif part.shape == "sphere":
             builder.add_sphere_visual(pose=pose, radius=part.size[0], material=render_material)
         elif part.shape == "capsule":
-            builder.add_capsule_visual(pose=pose, radius=part.size[0], half_length=part.size[1],
-                                       material=render_material)
+            builder.add_capsule_visual(
+                pose=pose, radius=part.size[0], half_length=part.size[1], material=render_material
+            )
         else:  # SAPIEN's cylinder visual has no texture coordinates: a generated mesh carries the texture
             builder.add_visual_mesh(cylinder_mesh(part.size[0], part.size[1]), render_material, pose)
 
@@ -246,8 +247,9 @@ class CatalogObject:
         pose = sapien.Pose(p=list(transform.translation), q=list(transform.quaternion))
         for path in self.visual_files() if looks else []:
             if self.source.get("textured"):
-                builder.add_visual_from_file(str(path), pose=pose, scale=list(transform.scale),
-                                             material=sidecar_texture_material(path))  # fmt: skip
+                builder.add_visual_from_file(
+                    str(path), pose=pose, scale=list(transform.scale), material=sidecar_texture_material(path)
+                )
             else:  # no texture of its own: texture coordinates projected from the shape, a texture of its kind
                 mesh = projected_mesh(str(path), tuple(transform.scale))
                 builder.add_visual_mesh(mesh, self._render_materials()[0], pose)
@@ -309,16 +311,32 @@ CATALOG_VERSION = 1
 
 
 def _read_object(name: str, fields: Fields) -> CatalogObject:
-    fields.only([
-        "class", "description", "colors", "rgba", "mass", "friction", "restitution", "source", "license", "container",
-        "interior", "dimensions", "transform", "collision", "fixture",
-    ])  # fmt: skip
+    fields.only(
+        [
+            "class",
+            "description",
+            "colors",
+            "rgba",
+            "mass",
+            "friction",
+            "restitution",
+            "source",
+            "license",
+            "container",
+            "interior",
+            "dimensions",
+            "transform",
+            "collision",
+            "fixture",
+        ]
+    )
     colors = fields.get("colors", list)
     for index, color in enumerate(colors):
         check_kind(color, str, lambda problem, fix, index=index: fields.error(f"colors[{index}]", problem, fix))
         if color not in COLOR_NAMES:
-            raise fields.error(f"colors[{index}]", f"'{color}' is not a known colour name",
-                               did_you_mean(color, COLOR_NAMES))  # fmt: skip
+            raise fields.error(
+                f"colors[{index}]", f"'{color}' is not a known colour name", did_you_mean(color, COLOR_NAMES)
+            )
     default_rgba = [*COLOR_NAMES[colors[0]], 1.0] if colors else None
     rgba = fields.number_list("rgba", 4, default_rgba, low=0.0, high=1.0)
     if rgba is None:
@@ -335,8 +353,9 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     is_fixture = fields.get("fixture", bool, False)
     interior = fields.number_list("interior", 3, None, low=0.0, high=MAX_OBJECT_SIZE, above=True, unit="m")
     if interior is not None and not is_container:
-        raise fields.error("interior", "is given for an object that is not a container",
-                           "Set container: true, or leave interior out")  # fmt: skip
+        raise fields.error(
+            "interior", "is given for an object that is not a container", "Set container: true, or leave interior out"
+        )
     dimensions = fields.number_list("dimensions", 3, None, low=0.0, high=MAX_OBJECT_SIZE, above=True, unit="m")
     collision = fields.sub("collision", {})
     collision.only(["method", "file"])
@@ -362,29 +381,46 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         source.only(MESH_SOURCE_FIELDS if kind == "mesh" else FILE_SOURCE_FIELDS)
         paths = source.get("paths", list)
         if not paths:
-            raise source.error("paths", "is empty", "List the mesh files inside the package" if kind == "mesh" else
-                               "List the mesh files, relative to the catalog file's folder")  # fmt: skip
+            raise source.error(
+                "paths",
+                "is empty",
+                "List the mesh files inside the package"
+                if kind == "mesh"
+                else "List the mesh files, relative to the catalog file's folder",
+            )
         for index, path in enumerate(paths):
             check_kind(path, str, lambda problem, fix, index=index: source.error(f"paths[{index}]", problem, fix))
             if path in paths[:index]:
                 raise source.error(f"paths[{index}]", f"'{path}' is listed twice", "List each mesh file once")
             if kind == "file" and not (Path(fields.file).parent / path).is_file():
-                raise source.error(f"paths[{index}]", f"'{path}' is not a file beside the catalog file",
-                                   f"Put the mesh at {Path(fields.file).parent / path}, or correct the path")  # fmt: skip
+                raise source.error(
+                    f"paths[{index}]",
+                    f"'{path}' is not a file beside the catalog file",
+                    f"Put the mesh at {Path(fields.file).parent / path}, or correct the path",
+                )
         if kind == "file":
-            source_record = {"kind": kind, "paths": paths, "textured": source.get("textured", bool, False),
-                             "origin": source.get("origin", str, "")}  # fmt: skip
+            source_record = {
+                "kind": kind,
+                "paths": paths,
+                "textured": source.get("textured", bool, False),
+                "origin": source.get("origin", str, ""),
+            }
         else:
             source_record = {
-                "kind": kind, "package": source.get("package", str), "paths": paths,
+                "kind": kind,
+                "package": source.get("package", str),
+                "paths": paths,
                 "textured": source.get("textured", bool, False),
                 "collision_pieces": source.get("collision_pieces", str, ""),
-            }  # fmt: skip
+            }
         methods = [m for m in COLLISION_METHODS if m != "primitives" and (kind == "mesh" or m != "packaged_pieces")]
         method = collision.choice("method", methods)
         if method == "packaged_pieces" and not source_record["collision_pieces"]:
-            raise source.error("collision_pieces", "is needed for collision method 'packaged_pieces'",
-                               "Give a glob of the packaged convex pieces, relative to the first path's folder")  # fmt: skip
+            raise source.error(
+                "collision_pieces",
+                "is needed for collision method 'packaged_pieces'",
+                "Give a glob of the packaged convex pieces, relative to the first path's folder",
+            )
         collision_file = collision_dir(fields.file) / collision.get("file", str, f"{name}.obj")
         spec = fields.sub("transform", {})
         spec.only(["scale", "rotation_deg", "translation"])
@@ -398,12 +434,17 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
             translation=tuple(spec.number_list("translation", 3, [0.0, 0.0, 0.0], low=-1.0, high=1.0, unit="m")),
         )
         if dimensions is None:
-            raise fields.error("dimensions", "is missing for a mesh object", "Run 'robolab catalog build' to fill it in")
+            raise fields.error(
+                "dimensions", "is missing for a mesh object", "Run 'robolab catalog build' to fill it in"
+            )
     if is_container and interior is None:
         raise fields.error("interior", "is missing for a container", "Give the inner size [x, y, z] in metres")
     if interior is not None and dimensions is not None and any(i > d for i, d in zip(interior, dimensions)):
-        raise fields.error("interior", f"{interior} is larger than the object's dimensions {dimensions}",
-                           "Give the inner size, which fits within the outer one")  # fmt: skip
+        raise fields.error(
+            "interior",
+            f"{interior} is larger than the object's dimensions {dimensions}",
+            "Give the inner size, which fits within the outer one",
+        )
     return CatalogObject(
         name=name,
         object_class=fields.choice("class", OBJECT_CLASSES),
@@ -438,7 +479,9 @@ def _read_generator_params(params: Fields, generator: str) -> dict[str, Any]:
     signature = inspect.signature(GENERATORS[generator]).parameters
     for key in params.data:
         if key not in signature:
-            raise params.error(str(key), f"is not a parameter of generator '{generator}'", did_you_mean(str(key), signature))
+            raise params.error(
+                str(key), f"is not a parameter of generator '{generator}'", did_you_mean(str(key), signature)
+            )
     values: dict[str, Any] = {}
     for key, parameter in signature.items():
         default = parameter.default
@@ -472,13 +515,18 @@ def _check_parts(source: Fields, parts: list[Part]) -> None:
     for part in parts:
         numbers = np.array([*part.size, *part.position, *part.rotation], dtype=float)
         if not np.isfinite(numbers).all() or min(part.size) <= 0:
-            raise source.error("params", f"make a {part.shape} part of size {part.size}, which is not positive",
-                               "Check that the parameters fit together (for example a length longer than the head)")
+            raise source.error(
+                "params",
+                f"make a {part.shape} part of size {part.size}, which is not positive",
+                "Check that the parameters fit together (for example a length longer than the head)",
+            )
     extent = np.max([np.asarray(p.position) + p.half_extent() for p in parts], 0) - np.min(
-        [np.asarray(p.position) - p.half_extent() for p in parts], 0)  # fmt: skip
+        [np.asarray(p.position) - p.half_extent() for p in parts], 0
+    )
     if extent.max() > MAX_OBJECT_SIZE:
-        raise source.error("params", f"make an object {extent.max():.2f} m across",
-                           f"Keep objects within {MAX_OBJECT_SIZE} m")  # fmt: skip
+        raise source.error(
+            "params", f"make an object {extent.max():.2f} m across", f"Keep objects within {MAX_OBJECT_SIZE} m"
+        )
 
 
 def read_catalog(file: Path) -> Catalog:
@@ -487,16 +535,21 @@ def read_catalog(file: Path) -> Catalog:
     data.only(["version", "objects"])
     version = data.get("version", int, CATALOG_VERSION)
     if version != CATALOG_VERSION:
-        raise data.error("version", f"{version} is not a catalog version this robolab_ms reads",
-                         f"Write version: {CATALOG_VERSION}")  # fmt: skip
+        raise data.error(
+            "version", f"{version} is not a catalog version this robolab_ms reads", f"Write version: {CATALOG_VERSION}"
+        )
     entries = data.sub("objects")
     if not entries.data:
         raise data.error("objects", "is empty", "Add at least one object")
     objects = {}
     for name in entries.data:
         if not isinstance(name, str) or not name.replace("_", "").isalnum() or not name.isascii():
-            raise SpecError(file, f"objects.{name}", "object names must be letters, digits and underscores",
-                            "Rename it, e.g. red_mug")  # fmt: skip
+            raise SpecError(
+                file,
+                f"objects.{name}",
+                "object names must be letters, digits and underscores",
+                "Rename it, e.g. red_mug",
+            )
         objects[name] = _read_object(name, entries.sub(name))
     return Catalog(objects, file)
 

@@ -77,8 +77,9 @@ def register_task_file(path: str | Path, replace: bool = False) -> str:
         level = quiet.level
         quiet.setLevel(logging.ERROR)  # not ManiSkill's "Override registered env" warning: replacing is the point
         try:
-            register_env(env_id, max_episode_steps=_episode_steps(path), override=known is not None,
-                         task=str(path))(RoboLabEnv)  # fmt: skip
+            register_env(env_id, max_episode_steps=_episode_steps(path), override=known is not None, task=str(path))(
+                RoboLabEnv
+            )
         finally:
             quiet.setLevel(level)
         spec = gym.registry[env_id]
@@ -90,7 +91,7 @@ def register_all_tasks() -> list[str]:
     """Register every known task (idempotent): the shipped ones first, then those of user content folders, whose
     problems (a folder that is missing, a name defined twice) are raised after the shipped ones are registered."""
     ids = [register_task_file(path) for path in sorted(content_dir("tasks").glob("*.yaml"))]
-    for name, path in sorted(content_files("tasks").items()):
+    for _name, path in sorted(content_files("tasks").items()):
         env_id = register_task_file(path)
         if env_id not in ids:
             ids.append(env_id)

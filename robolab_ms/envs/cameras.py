@@ -103,8 +103,19 @@ def policy_camera_configs(
     for name in names:
         if name == "wrist":
             intrinsic = scaled_intrinsic(WRIST_FOCAL_NATIVE, width, height)
-            configs.append(CameraConfig(name, wrist_pose, width, height, intrinsic=intrinsic, near=0.01, far=FAR,
-                                        mount=wrist_mount, **shader))  # fmt: skip
+            configs.append(
+                CameraConfig(
+                    name,
+                    wrist_pose,
+                    width,
+                    height,
+                    intrinsic=intrinsic,
+                    near=0.01,
+                    far=FAR,
+                    mount=wrist_mount,
+                    **shader,
+                )
+            )
         else:
             intrinsic = scaled_intrinsic(EXTERNAL_FOCAL_NATIVE, width, height)
             pose = external_pose(name.removeprefix("external_"))
@@ -115,8 +126,16 @@ def policy_camera_configs(
 def video_camera_config(width: int, height: int, render_quality: str = "fast") -> CameraConfig:
     """A wide third-person view for recordings (`env.render()`); never part of the observations."""
     pose = sapien_utils.look_at(eye=[1.45, 0.85, 0.85], target=[0.45, 0.0, 0.1])
-    return CameraConfig("video", pose, width, height, fov=math.radians(60), near=0.01, far=FAR,
-                        shader_config=shader_config(render_quality))  # fmt: skip
+    return CameraConfig(
+        "video",
+        pose,
+        width,
+        height,
+        fov=math.radians(60),
+        near=0.01,
+        far=FAR,
+        shader_config=shader_config(render_quality),
+    )
 
 
 # ---------------------------------------------------------------------------------------------------- render quality
@@ -178,7 +197,9 @@ class SensorEffects:
             return value
         unknown = set(value) - {"exposure", "white_balance", "blur", "noise"}
         if unknown:
-            raise ValueError(f"sensor effects: unknown field(s) {sorted(unknown)}; use exposure, white_balance, blur, noise")
+            raise ValueError(
+                f"sensor effects: unknown field(s) {sorted(unknown)}; use exposure, white_balance, blur, noise"
+            )
         return cls(**{k: tuple(v) if k == "white_balance" else float(v) for k, v in value.items()})
 
     @property

@@ -53,8 +53,10 @@ class DroidObservation(gym.ObservationWrapper):
                         f"cameras=({exterior_camera!r}, 'wrist') (it has {list(cameras)})"
                     )
             if "rgb" not in getattr(base, "obs_mode", ""):
-                raise RoboLabError(f"DroidObservation needs images: make the environment with obs_mode='rgb' "
-                                   f"(it has '{base.obs_mode}'), or pass images=False")  # fmt: skip
+                raise RoboLabError(
+                    f"DroidObservation needs images: make the environment with obs_mode='rgb' "
+                    f"(it has '{base.obs_mode}'), or pass images=False"
+                )
             image = spaces.Box(0, 255, (count, base.camera_height, base.camera_width, 3), np.uint8)
             keys = {EXTERIOR_IMAGE: image, WRIST_IMAGE: image}
         self.observation_space = spaces.Dict(
@@ -72,8 +74,10 @@ class DroidObservation(gym.ObservationWrapper):
         images = {}
         if self.images:
             sensors = observation["sensor_data"]
-            images = {EXTERIOR_IMAGE: _numpy(sensors[self.exterior_camera]["rgb"]),
-                      WRIST_IMAGE: _numpy(sensors["wrist"]["rgb"])}  # fmt: skip
+            images = {
+                EXTERIOR_IMAGE: _numpy(sensors[self.exterior_camera]["rgb"]),
+                WRIST_IMAGE: _numpy(sensors["wrist"]["rgb"]),
+            }
         return {
             **images,
             "joint_position": _numpy(base.arm_qpos()).astype(np.float32),

@@ -142,7 +142,11 @@ class RoboLabEnv(BaseEnv):
     def _default_sensor_configs(self) -> list[CameraConfig]:
         mount = self.agent.robot.links_map[self.robot.wrist_mount_link]
         configs = cameras_module.policy_camera_configs(
-            self.camera_names, self.camera_width, self.camera_height, mount, cameras_module.wrist_pose(self.robot),
+            self.camera_names,
+            self.camera_width,
+            self.camera_height,
+            mount,
+            cameras_module.wrist_pose(self.robot),
             self.render_quality,
         )
         return configs if self.variation is None else self.variation.camera_configs(configs)
@@ -205,7 +209,9 @@ class RoboLabEnv(BaseEnv):
         fingers = [links[name] for name in self.robot.finger_links]
         joints = [joint.name for joint in self.agent.robot.active_joints]
         self._arm_joint_index = torch.tensor([joints.index(j) for j in self.robot.arm_joints], device=self.device)
-        self._gripper_joint_index = torch.tensor([joints.index(j) for j in self.robot.gripper_joints], device=self.device)
+        self._gripper_joint_index = torch.tensor(
+            [joints.index(j) for j in self.robot.gripper_joints], device=self.device
+        )
         home = torch.zeros(len(joints))
         home[self._arm_joint_index.cpu()] = torch.tensor(self.robot.home_arm_qpos, dtype=torch.float32)
         home[self._gripper_joint_index.cpu()] = self.robot.gripper_open_qpos
@@ -235,7 +241,9 @@ class RoboLabEnv(BaseEnv):
         if not self.variations:
             return
         if kwargs.get("num_envs", 1) != 1:
-            raise RoboLabError(f"variations need one environment per process (num_envs=1), got num_envs={kwargs['num_envs']}")
+            raise RoboLabError(
+                f"variations need one environment per process (num_envs=1), got num_envs={kwargs['num_envs']}"
+            )
         if kwargs.setdefault("reconfiguration_freq", 1) != 1:
             raise RoboLabError("variations rebuild the scene at every reset: leave reconfiguration_freq at 1")
 
@@ -337,7 +345,11 @@ class RoboLabEnv(BaseEnv):
         one of this episode's (its physics state after the replay differs)."""
         seed = int(torch.as_tensor(episode["seed"]).reshape(-1)[0])
         step = int(torch.as_tensor(episode["step"]).reshape(-1)[0])
-        if self._episode_seed_used is None or seed != self._episode_seed_used or not 0 <= step <= len(self._episode_actions):
+        if (
+            self._episode_seed_used is None
+            or seed != self._episode_seed_used
+            or not 0 <= step <= len(self._episode_actions)
+        ):
             return False
         if step == int(self._elapsed_steps[0]) and _same_state(super().get_state_dict(), state):
             return True  # already in exactly that state
@@ -362,9 +374,11 @@ class RoboLabEnv(BaseEnv):
     def render(self) -> Any:
         """ManiSkill's render(); a clear error when the environment has no renderer (`render_backend="none"`)."""
         if self.render_mode is not None and not scene_renders(self.scene):
-            raise RoboLabError(f"render(): this environment was made with render_backend='none', so it has no "
-                               f"renderer for render_mode={self.render_mode!r}; make it with render_backend='cpu' "
-                               "(or 'gpu') to render, or with render_mode=None")  # fmt: skip
+            raise RoboLabError(
+                f"render(): this environment was made with render_backend='none', so it has no "
+                f"renderer for render_mode={self.render_mode!r}; make it with render_backend='cpu' "
+                "(or 'gpu') to render, or with render_mode=None"
+            )
         return super().render()
 
     # ------------------------------------------------------------------------------------------------ stepping
@@ -404,8 +418,10 @@ def _check_renderer_use(kwargs: dict) -> None:
         return
     obs_mode = kwargs.get("obs_mode") or "state"
     if obs_mode not in STATE_OBS_MODES:
-        raise RoboLabError(f"obs_mode={obs_mode!r} needs camera images, but render_backend='none' renders nothing: "
-                           f"use obs_mode='state' or 'state_dict', or render_backend='cpu' (or 'gpu')")  # fmt: skip
+        raise RoboLabError(
+            f"obs_mode={obs_mode!r} needs camera images, but render_backend='none' renders nothing: "
+            f"use obs_mode='state' or 'state_dict', or render_backend='cpu' (or 'gpu')"
+        )
 
 
 def _action_copy(action: Any) -> Any:

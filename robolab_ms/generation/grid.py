@@ -62,11 +62,21 @@ def grid_poses(answer: dict[str, Any], catalog: Catalog, seed: int = 0) -> tuple
         asset = str(item.get("asset", "")) if isinstance(item, dict) else ""
         name = str(item.get("name") or asset) if isinstance(item, dict) else ""
         if asset not in catalog.names() or catalog[asset].is_fixture:
-            problems.append(f"objects[{index}]: unknown catalog object '{asset}'. {did_you_mean(asset, catalog.names())}")
+            problems.append(
+                f"objects[{index}]: unknown catalog object '{asset}'. {did_you_mean(asset, catalog.names())}"
+            )
             continue
         cell = cells.get(name)
-        if not (isinstance(cell, list) and len(cell) == 2 and all(isinstance(v, int) for v in cell)
-                and 0 <= cell[0] < rows and 0 <= cell[1] < columns) or tuple(cell) in used:  # fmt: skip
+        if (
+            not (
+                isinstance(cell, list)
+                and len(cell) == 2
+                and all(isinstance(v, int) for v in cell)
+                and 0 <= cell[0] < rows
+                and 0 <= cell[1] < columns
+            )
+            or tuple(cell) in used
+        ):
             problems.append(f"cells: '{name}' has no free cell of the {rows} x {columns} grid (got {cell!r})")
             continue
         used.add(tuple(cell))

@@ -25,12 +25,37 @@ ANY_WORDS = {"a", "an", "any", "either", "some"}
 SIZE_WORDS = {"big": 1, "bigger": 1, "biggest": 1, "large": 1, "larger": 1, "largest": 1, "huge": 1, "tall": 1,
               "taller": 1, "small": -1, "smaller": -1, "smallest": -1, "little": -1, "tiny": -1,
               "short": -1}  # fmt: skip
-POSITION_WORDS = {"left": (1, 1.0), "leftmost": (1, 1.0), "right": (1, -1.0), "rightmost": (1, -1.0),
-                  "front": (0, -1.0), "near": (0, -1.0), "nearest": (0, -1.0), "back": (0, 1.0), "far": (0, 1.0),
-                  "farthest": (0, 1.0), "rear": (0, 1.0)}  # word -> (axis, sign): the extreme along x or y
+POSITION_WORDS = {
+    "left": (1, 1.0),
+    "leftmost": (1, 1.0),
+    "right": (1, -1.0),
+    "rightmost": (1, -1.0),
+    "front": (0, -1.0),
+    "near": (0, -1.0),
+    "nearest": (0, -1.0),
+    "back": (0, 1.0),
+    "far": (0, 1.0),
+    "farthest": (0, 1.0),
+    "rear": (0, 1.0),
+}  # word -> (axis, sign): the extreme along x or y
 DETERMINERS = {"the", "this", "that", "these", "those", "other", "its", "their"}
-ADJECTIVES = MODIFIERS | {"plastic", "metal", "glass", "paper", "ceramic", "wooden", "wood", "serving", "measuring",
-                          "cordless", "canned", "cardboard", "kitchen", "coffee", "tea"}
+ADJECTIVES = MODIFIERS | {
+    "plastic",
+    "metal",
+    "glass",
+    "paper",
+    "ceramic",
+    "wooden",
+    "wood",
+    "serving",
+    "measuring",
+    "cordless",
+    "canned",
+    "cardboard",
+    "kitchen",
+    "coffee",
+    "tea",
+}
 GENERIC = {"item", "object", "thing", "everything", "stuff"}  # any movable object
 CATEGORIES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {  # word -> (catalog classes, name words)
     "fruit": (("fruit",), ()), "vegetable": (("vegetable",), ()), "veggie": (("vegetable",), ()),
@@ -46,14 +71,79 @@ CATEGORIES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {  # word -> (c
                                                          "dressing", "condiment")),
     "animal": ((), ("elephant", "lizard", "animal", "dog", "cat", "horse", "duck", "giraffe")),
 }  # fmt: skip
-MORE_SYNONYMS = {"barbecue": "bbq", "cellphone": "smartphone", "telephone": "smartphone", "spectacles": "eyeglasses",
-                 "trashcan": "bin", "bucket": "pail", "tin": "can", "puzzle": "rubiks", "rubik": "rubiks"}  # fmt: skip
-STATE_WORDS = {"upright", "sideways", "lying", "standing", "top", "middle", "bottom", "near", "far", "left", "right",
-               "front", "back", "open", "closed", "empty", "full", "big", "small", "new", "old"}  # in scene names
-HEAD_NOUNS = {"plate", "bowl", "mug", "bin", "box", "can", "bottle", "block", "hammer", "pumpkin", "lime", "lemon",
-              "jug", "cup", "spoon", "pail", "crate", "tray", "basket", "pot", "pan", "book", "marker", "brick"}
-MASS_NOUNS = {"electronics", "fruit", "food", "produce", "cutlery", "tableware", "dishware", "stuff", "everything",
-              "grocery", "groceries"}  # plural in meaning
+MORE_SYNONYMS = {
+    "barbecue": "bbq",
+    "cellphone": "smartphone",
+    "telephone": "smartphone",
+    "spectacles": "eyeglasses",
+    "trashcan": "bin",
+    "bucket": "pail",
+    "tin": "can",
+    "puzzle": "rubiks",
+    "rubik": "rubiks",
+}
+STATE_WORDS = {
+    "upright",
+    "sideways",
+    "lying",
+    "standing",
+    "top",
+    "middle",
+    "bottom",
+    "near",
+    "far",
+    "left",
+    "right",
+    "front",
+    "back",
+    "open",
+    "closed",
+    "empty",
+    "full",
+    "big",
+    "small",
+    "new",
+    "old",
+}  # in scene names
+HEAD_NOUNS = {
+    "plate",
+    "bowl",
+    "mug",
+    "bin",
+    "box",
+    "can",
+    "bottle",
+    "block",
+    "hammer",
+    "pumpkin",
+    "lime",
+    "lemon",
+    "jug",
+    "cup",
+    "spoon",
+    "pail",
+    "crate",
+    "tray",
+    "basket",
+    "pot",
+    "pan",
+    "book",
+    "marker",
+    "brick",
+}
+MASS_NOUNS = {
+    "electronics",
+    "fruit",
+    "food",
+    "produce",
+    "cutlery",
+    "tableware",
+    "dishware",
+    "stuff",
+    "everything",
+    "grocery",
+    "groceries",
+}  # plural in meaning
 NOT_PLURAL = {"glasses", "eyeglasses", "electronics", "scissors", "pliers", "rubiks", "tongs", "snips"}
 RELATIONS: list[tuple[str, str]] = [  # (pattern of tokens, kind), the longer first
     ("to the left of", "left_of"), ("on the left of", "left_of"), ("left of", "left_of"),
@@ -125,8 +215,11 @@ def rests_in(obj: SceneObject, host: SceneObject) -> bool:
     if obj.on == host.name:
         return True
     half = max(float(host.entry.dimensions[0]), float(host.entry.dimensions[1])) / 2
-    return (obj.xy[0] - host.xy[0]) ** 2 + (obj.xy[1] - host.xy[1]) ** 2 < half**2 and obj.on is None and (
-        host.entry.is_container or host.entry.is_fixture)  # fmt: skip
+    return (
+        (obj.xy[0] - host.xy[0]) ** 2 + (obj.xy[1] - host.xy[1]) ** 2 < half**2
+        and obj.on is None
+        and (host.entry.is_container or host.entry.is_fixture)
+    )
 
 
 @dataclass
@@ -235,13 +328,19 @@ class SceneVocabulary:
             obj = SceneObject(placement.name, placement.asset, entry, placement.xy, placement.on)
             for source in (placement.asset, placement.name):
                 parts = [p for p in re.split(r"[_\d]+", source) if p and p not in STATE_WORDS]
-                nouns = [p for p in parts if p.isalpha() and len(p) > 2 and p not in self.colours and p not in STOP
-                         and p not in MODIFIERS]  # fmt: skip
+                nouns = [
+                    p
+                    for p in parts
+                    if p.isalpha() and len(p) > 2 and p not in self.colours and p not in STOP and p not in MODIFIERS
+                ]
                 if not nouns:  # "orange_01": a colour word is the noun
                     nouns = [p for p in parts if p.isalpha() and len(p) > 2]
                 obj.words.update(nouns)
-                obj.words.update(" ".join(parts[i : i + 2]) for i in range(len(parts) - 1)
-                                 if parts[i] in nouns and parts[i + 1] in nouns)  # fmt: skip
+                obj.words.update(
+                    " ".join(parts[i : i + 2])
+                    for i in range(len(parts) - 1)
+                    if parts[i] in nouns and parts[i + 1] in nouns
+                )
             if entry.object_class not in CATEGORIES:  # "furniture": a class word that is no category
                 obj.words.add(entry.object_class)
             if entry.is_fixture:
@@ -250,8 +349,11 @@ class SceneVocabulary:
         self.catalog_words: set[str] = set()
         for name in catalog.names():
             parts = [p for p in re.split(r"[_\d]+", name) if p]
-            self.catalog_words.update(p for p in parts if p.isalpha() and len(p) > 3 and p not in self.colours
-                                      and p not in STOP and p not in MODIFIERS)  # fmt: skip
+            self.catalog_words.update(
+                p
+                for p in parts
+                if p.isalpha() and len(p) > 3 and p not in self.colours and p not in STOP and p not in MODIFIERS
+            )
 
     def movable(self) -> list[str]:
         return [name for name, obj in self.objects.items() if not obj.entry.is_fixture]
@@ -274,8 +376,11 @@ class SceneVocabulary:
             key = variant if len(variant.split()) == 1 else None
             if key in CATEGORIES:  # "toys": the toy elephants and every object of the class (blocks included)
                 classes, name_words = CATEGORIES[key]
-                members = [name for name, obj in self.objects.items() if not obj.entry.is_fixture
-                           and (obj.entry.object_class in classes or obj.words & set(name_words))]  # fmt: skip
+                members = [
+                    name
+                    for name, obj in self.objects.items()
+                    if not obj.entry.is_fixture and (obj.entry.object_class in classes or obj.words & set(name_words))
+                ]
                 found = named + [name for name in members if name not in named]
                 return found, len(found) > len(named)
             if key in GENERIC:
@@ -283,12 +388,14 @@ class SceneVocabulary:
         return (named, False) if named else None
 
     def names_catalog_object(self, word: str) -> bool:
-        return any(form in self.catalog_words or SYNONYMS.get(form, "") in self.catalog_words
-                   for form in singulars(word))
+        return any(
+            form in self.catalog_words or SYNONYMS.get(form, "") in self.catalog_words for form in singulars(word)
+        )
 
 
-def read_instruction(text: str, scene: SceneSpec, catalog: Catalog,
-                     vocabulary: SceneVocabulary | None = None) -> Reading:  # fmt: skip
+def read_instruction(
+    text: str, scene: SceneSpec, catalog: Catalog, vocabulary: SceneVocabulary | None = None
+) -> Reading:
     """Read an instruction against a scene (see the module's docstring)."""
     vocabulary = vocabulary or SceneVocabulary(scene, catalog)
     tokens = tokens_of(text)
@@ -350,9 +457,14 @@ def _mentions(tokens: list[str], vocab: SceneVocabulary) -> tuple[list[Mention],
             index += 1
             continue
         if found is None:
-            if index < len(tokens) and tokens[index].isalpha() and tokens[index] not in STOP \
-                    and index not in relation_words and vocab.names_catalog_object(tokens[index]) \
-                    and tokens[index - 1 : index] != ["for"]:  # fmt: skip
+            if (
+                index < len(tokens)
+                and tokens[index].isalpha()
+                and tokens[index] not in STOP
+                and index not in relation_words
+                and vocab.names_catalog_object(tokens[index])
+                and tokens[index - 1 : index] != ["for"]
+            ):
                 missing.append(tokens[index])
             index = start + 1 if index == start else index
             continue
@@ -372,18 +484,37 @@ def _mentions(tokens: list[str], vocab: SceneVocabulary) -> tuple[list[Mention],
         made = []
         for mention_start, mention_colours in group:
             colour_words.extend(mention_colours)
-            made.append(Mention(start=mention_start, end=index + length, text=phrase, candidates=list(candidates),
-                                noun_candidates=list(candidates), colours=list(mention_colours), quantity=quantity,
-                                count=count, category=category,
-                                plural=plural_word(last) or last in MASS_NOUNS,
-                                size=size, position=position, modifiers=modifiers, other=other,
-                                descriptor=start > 0 and tokens[start - 1] == "with"))  # fmt: skip
+            made.append(
+                Mention(
+                    start=mention_start,
+                    end=index + length,
+                    text=phrase,
+                    candidates=list(candidates),
+                    noun_candidates=list(candidates),
+                    colours=list(mention_colours),
+                    quantity=quantity,
+                    count=count,
+                    category=category,
+                    plural=plural_word(last) or last in MASS_NOUNS,
+                    size=size,
+                    position=position,
+                    modifiers=modifiers,
+                    other=other,
+                    descriptor=start > 0 and tokens[start - 1] == "with",
+                )
+            )
         mentions.extend(made)
         index += length
         # "the tools that are not hammers", "the tools except the hammers"
         rest = tokens[index : index + 4]
-        for lead in (["that", "are", "not"], ["that", "is", "not"], ["except"], ["but", "not"], ["other", "than"],
-                     ["not"]):  # fmt: skip
+        for lead in (
+            ["that", "are", "not"],
+            ["that", "is", "not"],
+            ["except"],
+            ["but", "not"],
+            ["other", "than"],
+            ["not"],
+        ):
             if rest[: len(lead)] == lead:
                 skip = index + len(lead)
                 while skip < len(tokens) and tokens[skip] in ("the", "a", "an"):
@@ -395,8 +526,10 @@ def _mentions(tokens: list[str], vocab: SceneVocabulary) -> tuple[list[Mention],
                     index = skip + excluded[0]
                 break
         # "the holder on the right"
-        if tokens[index : index + 3] in (["on", "the", "right"], ["on", "the", "left"]) and _noun_at(
-                tokens, index + 3, vocab) is None:  # fmt: skip
+        if (
+            tokens[index : index + 3] in (["on", "the", "right"], ["on", "the", "left"])
+            and _noun_at(tokens, index + 3, vocab) is None
+        ):
             for mention in made:
                 mention.position = tokens[index + 2]
             index += 3
@@ -419,8 +552,9 @@ def _relation_spans(tokens: list[str]) -> set[int]:
     return starts
 
 
-def _noun_at(tokens: list[str], index: int, vocab: SceneVocabulary,
-             colour_noun: bool = True) -> tuple[int, list[str], bool] | None:  # fmt: skip
+def _noun_at(
+    tokens: list[str], index: int, vocab: SceneVocabulary, colour_noun: bool = True
+) -> tuple[int, list[str], bool] | None:
     """The longest phrase at `index` (up to three words) that names scene objects: (length, objects, category).
     With `colour_noun` False, a one-word colour ("orange") counts only when it is followed by no other noun."""
     for length in (3, 2, 1):
@@ -447,8 +581,11 @@ def _narrow(mention: Mention, vocab: SceneVocabulary) -> None:
         candidates = named or candidates
     for colour in mention.colours:
         first = [c for c in candidates if objects[c].colours[:1] == (colour,) or objects[c].named(colour)]
-        anywhere = [c for c in candidates if colour in objects[c].colours and len(objects[c].colours) < 4
-                    or objects[c].named(colour)]  # fmt: skip
+        anywhere = [
+            c
+            for c in candidates
+            if colour in objects[c].colours and len(objects[c].colours) < 4 or objects[c].named(colour)
+        ]
         candidates = first if mention.category and first else anywhere or first
     if mention.size and candidates:
         ordered = sorted(candidates, key=lambda c: objects[c].volume * mention.size, reverse=True)
@@ -514,10 +651,14 @@ def _actions(tokens: list[str], mentions: list[Mention], vocab: SceneVocabulary)
         for stop in (":", ";", "."):
             if stop in tokens[boundary : action.position]:
                 boundary = max(i for i in range(boundary, action.position) if tokens[i] == stop) + 1
-        before = [m for m in movers if boundary <= m.start < action.position and id(m) not in claimed
-                  and m is not action.reference]  # fmt: skip
-        action.after_then = "then" in tokens[boundary : action.position] or "then" in tokens[
-            max(0, boundary - 3) : boundary]  # fmt: skip
+        before = [
+            m
+            for m in movers
+            if boundary <= m.start < action.position and id(m) not in claimed and m is not action.reference
+        ]
+        action.after_then = (
+            "then" in tokens[boundary : action.position] or "then" in tokens[max(0, boundary - 3) : boundary]
+        )
         action.targets = before
         claimed.update(id(m) for m in before)
         if action.reference is not None:
@@ -530,8 +671,9 @@ def _actions(tokens: list[str], mentions: list[Mention], vocab: SceneVocabulary)
         if action.kind in ("pick", "stack", "away", "clear") and not action.targets:
             end = action.position + len(action.word.split())
             following = found[number + 1].position if number + 1 < len(found) else len(tokens)
-            action.targets = [m for m in movers if end <= m.start < following and id(m) not in claimed
-                              and m is not action.reference]  # fmt: skip
+            action.targets = [
+                m for m in movers if end <= m.start < following and id(m) not in claimed and m is not action.reference
+            ]
             if action.kind == "clear" and action.targets:
                 action.reference, action.targets = action.targets[0], []
             claimed.update(id(m) for m in action.targets)
@@ -552,9 +694,17 @@ def _actions(tokens: list[str], mentions: list[Mention], vocab: SceneVocabulary)
         tail = [m for m in leftover if m.start > (last.reference.end if last.reference else last.position)]
         between = tokens[(last.reference.end if last.reference else last.position) : tail[0].start] if tail else []
         if tail and last.kind in ("in", "on", "to", "away") and ("then" in between or "," in between):
-            actions.append(Action(kind=last.kind, word=last.word, position=tail[0].start, targets=tail,
-                                  reference=last.reference, table_reference=last.table_reference,
-                                  after_then="then" in between))  # fmt: skip
+            actions.append(
+                Action(
+                    kind=last.kind,
+                    word=last.word,
+                    position=tail[0].start,
+                    targets=tail,
+                    reference=last.reference,
+                    table_reference=last.table_reference,
+                    after_then="then" in between,
+                )
+            )
     # pronouns: "take the drill out of the bin and put it on the table"
     for number, action in enumerate(actions):
         if not action.targets and number > 0 and action.kind in REFERENCED:

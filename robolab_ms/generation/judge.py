@@ -29,8 +29,8 @@ from robolab_ms.generation.instruction import Mention, Reading, SceneVocabulary,
 from robolab_ms.generation.llm import GenerationError, JsonModel
 from robolab_ms.generation.proposal import FRAME
 from robolab_ms.scene import SceneSpec
-from robolab_ms.tasks.predicates import PREDICATES
 from robolab_ms.tasks.condition import Condition
+from robolab_ms.tasks.predicates import PREDICATES
 from robolab_ms.tasks.spec import TaskSpec
 
 ALIGNED, MISALIGNED, UNSURE = "aligned", "misaligned", "unsure"
@@ -93,10 +93,18 @@ class RulesJudge:
         reading = read_instruction(instruction, spec.scene, self.catalog, vocabulary)
         main = reading.main()
         if main is None:
-            return Judgement(UNSURE, ["no relation word the rules know (in, on, left of, pick up, upright, out of, "
-                                      "stack ...) with an object of the scene"])  # fmt: skip
-        problems = [f"the instruction names '{word}', which is not in the scene"
-                    for word in dict.fromkeys(reading.missing) if not any(word in m.text for m in reading.mentions)]
+            return Judgement(
+                UNSURE,
+                [
+                    "no relation word the rules know (in, on, left of, pick up, upright, out of, "
+                    "stack ...) with an object of the scene"
+                ],
+            )
+        problems = [
+            f"the instruction names '{word}', which is not in the scene"
+            for word in dict.fromkeys(reading.missing)
+            if not any(word in m.text for m in reading.mentions)
+        ]
         for index, condition in enumerate(spec.success):
             where = f"success[{index}] ({condition.predicate})" if len(spec.success) > 1 else "the condition"
             found = self._check(reading, condition, vocabulary, len(spec.subtasks))
@@ -111,26 +119,34 @@ class RulesJudge:
         problems = []
         words = " / ".join(sorted({a.word for a in reading.actions if a.kind in kinds}))
         if condition.predicate not in allowed:
-            problems.append(f"the instruction says '{words}', which '{condition.predicate}' does not express; use "
-                            + " or ".join(sorted(allowed)))  # fmt: skip
+            problems.append(
+                f"the instruction says '{words}', which '{condition.predicate}' does not express; use "
+                + " or ".join(sorted(allowed))
+            )
         # the place: the container or reference the instruction names
         places = condition_place(condition)
         actions = [a for a in reading.actions if a.kind in kinds]
         named_places = [a.reference for a in actions if a.reference is not None]
         if any(a.table_reference for a in actions) and not named_places:
             if condition.predicate in ("on_center", "left_of", "right_of", "in_front_of", "behind", "next_to") and (
-                    places and places[0] != "table"):  # fmt: skip
+                places and places[0] != "table"
+            ):
                 problems.append(f"the instruction refers to the table, the condition to '{places[0]}'")
         for mention in named_places:
             if condition.predicate == "stacked":
                 if not set(mention.candidates) & set(condition.objects):
                     problems.append(f"the instruction stacks onto {_what(mention)}, which is not in the stack")
             elif places and not set(mention.candidates) & set(places):
-                problems.append(f"the instruction refers to {_what(mention)}, the condition to "
-                                + ", ".join(f"'{p}'" for p in places))  # fmt: skip
+                problems.append(
+                    f"the instruction refers to {_what(mention)}, the condition to "
+                    + ", ".join(f"'{p}'" for p in places)
+                )
         if main.kind == "away" and places:
-            if not all(vocabulary.objects[p].entry.is_container or vocabulary.objects[p].entry.is_fixture
-                       for p in places if p in vocabulary.objects):  # fmt: skip
+            if not all(
+                vocabulary.objects[p].entry.is_container or vocabulary.objects[p].entry.is_fixture
+                for p in places
+                if p in vocabulary.objects
+            ):
                 problems.append("the instruction puts things away, but the condition's place is not a container")
         # the order: "A in the bowl, then B" needs the placements in that order, and nothing else does
         in_actions = [a for a in actions if a.kind in ("in", "to", "on", "away") and a.targets]
@@ -139,14 +155,19 @@ class RulesJudge:
             sequence = [c for a in in_actions for m in a.targets for c in m.candidates]
             positions = [sequence.index(o) for o in condition.objects if o in sequence]
             if not ordered:
-                problems.append("the condition asks for the objects in a fixed order (placed_in_container_in_order), "
-                                "the instruction names no order; use in_container")  # fmt: skip
+                problems.append(
+                    "the condition asks for the objects in a fixed order (placed_in_container_in_order), "
+                    "the instruction names no order; use in_container"
+                )
             elif positions != sorted(positions):
-                problems.append("the condition's order of objects is not the instruction's: list them as the "
-                                "instruction names them")  # fmt: skip
+                problems.append(
+                    "the condition's order of objects is not the instruction's: list them as the instruction names them"
+                )
         elif ordered and condition.predicate == "in_container" and stages < 2:
-            problems.append("the instruction says which goes first ('then'); use placed_in_container_in_order, or "
-                            "subtasks with one stage per step")  # fmt: skip
+            problems.append(
+                "the instruction says which goes first ('then'); use placed_in_container_in_order, or "
+                "subtasks with one stage per step"
+            )
         # the objects: each one named is in the condition, and nothing else is moved
         mentions = list({id(m): m for a in actions for m in a.targets}.values())
         reference_names = {c for m in named_places for c in m.candidates[:1]}
@@ -156,8 +177,10 @@ class RulesJudge:
         named = {c for m in mentions for c in m.candidates}
         for mention in mentions:
             if not set(mention.candidates) & set(moved):
-                problems.append(f"the instruction names {_what(mention)}, but the condition moves none of "
-                                f"{_names(mention.candidates) or 'them'}")  # fmt: skip
+                problems.append(
+                    f"the instruction names {_what(mention)}, but the condition moves none of "
+                    f"{_names(mention.candidates) or 'them'}"
+                )
         for name in moved:
             if name not in named:
                 problems.append(self._stray(name, mentions, vocabulary))
@@ -167,15 +190,18 @@ class RulesJudge:
             wanted = self._wanted(mentions, actions, vocabulary, out_of)
             needed = required_count(condition) - (1 if condition.predicate == "stacked" and reference_names else 0)
             if wanted != needed:
-                problems.append(f"the instruction asks for {wanted} object(s), the condition needs {needed} "
-                                f"({condition.logical}{f' {condition.k}' if condition.logical == 'choose' else ''} "
-                                f"of {len(condition.objects)})")  # fmt: skip
+                problems.append(
+                    f"the instruction asks for {wanted} object(s), the condition needs {needed} "
+                    f"({condition.logical}{f' {condition.k}' if condition.logical == 'choose' else ''} "
+                    f"of {len(condition.objects)})"
+                )
             for mention in mentions:
                 expected = [c for c in mention.candidates if not out_of or rests_in(vocabulary.objects[c], out_of[0])]
                 if mention.wanted() is None and not set(expected) <= set(moved):
                     left = [c for c in expected if c not in moved]
-                    problems.append(f"the instruction asks for all of {_what(mention)}, the condition leaves out "
-                                    f"{_names(left)}")  # fmt: skip
+                    problems.append(
+                        f"the instruction asks for all of {_what(mention)}, the condition leaves out {_names(left)}"
+                    )
         return problems
 
     @staticmethod
@@ -201,8 +227,10 @@ class RulesJudge:
         for mention in mentions:
             if name in mention.noun_candidates and obj is not None:
                 if mention.colours and not set(mention.colours) & set(obj.colours):
-                    return (f"the condition moves '{name}', which is not {' '.join(mention.colours)} (its colours: "
-                            f"{', '.join(obj.colours) or 'none'})")  # fmt: skip
+                    return (
+                        f"the condition moves '{name}', which is not {' '.join(mention.colours)} (its colours: "
+                        f"{', '.join(obj.colours) or 'none'})"
+                    )
                 return f"the condition moves '{name}', which {_what(mention)} does not mean here"
         return f"the condition moves '{name}', which the instruction does not name"
 
@@ -233,8 +261,10 @@ def judge_system_prompt() -> str:
     for name, info in PREDICATES.items():
         doc = " ".join(info.doc.split())
         lines.append(f"- {name}: {doc}")
-    lines.append('Answer with ONE JSON object and nothing else: {"aligned": true or false, "problems": ["what does '
-                 'not match, one sentence each; empty when aligned"]}')  # fmt: skip
+    lines.append(
+        'Answer with ONE JSON object and nothing else: {"aligned": true or false, "problems": ["what does '
+        'not match, one sentence each; empty when aligned"]}'
+    )
     return "\n".join(lines)
 
 
@@ -246,8 +276,10 @@ def scene_listing(scene: SceneSpec, catalog: Catalog) -> str:
         marks = " (container)" if entry.is_container else " (shelf, fixed)" if entry.is_fixture else ""
         on = f", on {placement.on}" if placement.on else ""
         colours = "/".join(entry.colors) or "-"
-        lines.append(f"- {placement.name}: {placement.asset}, {entry.object_class}, colours {colours}, "
-                     f"at x={placement.xy[0]:.2f} y={placement.xy[1]:.2f}{on}{marks}")  # fmt: skip
+        lines.append(
+            f"- {placement.name}: {placement.asset}, {entry.object_class}, colours {colours}, "
+            f"at x={placement.xy[0]:.2f} y={placement.xy[1]:.2f}{on}{marks}"
+        )
     return "\n".join(lines)
 
 
@@ -262,8 +294,13 @@ def condition_data(condition: Condition) -> dict[str, Any]:
     for flag in ("require_contact_with", "require_gripper_detached", "require_picked_up"):
         if getattr(condition, flag):
             data[flag] = True
-    data.update({key: value for key, value in condition.params.items()
-                 if value != PREDICATES[condition.predicate].params.get(key)})  # fmt: skip
+    data.update(
+        {
+            key: value
+            for key, value in condition.params.items()
+            if value != PREDICATES[condition.predicate].params.get(key)
+        }
+    )
     return data
 
 
@@ -277,9 +314,11 @@ class ModelJudge:
         self.transcript: list[dict[str, Any]] = []  # every question asked and answer got
 
     def judge(self, instruction: str, spec: TaskSpec) -> Judgement:
-        question = (f"Scene objects:\n{scene_listing(spec.scene, self.catalog)}\n\nInstruction: {instruction}\n\n"
-                    "Success condition (any one of these suffices):\n"
-                    + json.dumps([condition_data(c) for c in spec.success], indent=1))  # fmt: skip
+        question = (
+            f"Scene objects:\n{scene_listing(spec.scene, self.catalog)}\n\nInstruction: {instruction}\n\n"
+            "Success condition (any one of these suffices):\n"
+            + json.dumps([condition_data(c) for c in spec.success], indent=1)
+        )
         messages = [{"role": "user", "content": question}]
         try:
             answer, raw = self.model.ask_json(judge_system_prompt(), messages)
@@ -296,5 +335,6 @@ class ModelJudge:
             return Judgement(UNSURE, [f"the judge answered without a true/false 'aligned': {raw[:200]}"], self.name)
         if aligned:
             return Judgement(ALIGNED, [], self.name)
-        return Judgement(MISALIGNED, problems or ["the judge found the condition does not match the instruction"],
-                         self.name)  # fmt: skip
+        return Judgement(
+            MISALIGNED, problems or ["the judge found the condition does not match the instruction"], self.name
+        )

@@ -44,15 +44,20 @@ def endpoint_settings(base_url: str | None, model: str | None, api_key: str | No
     resolved_key = api_key or env.get("ROBOLAB_LLM_API_KEY") or env.get("OPENAI_API_KEY")
     missing = []
     if not resolved_url:
-        missing.append("the endpoint: --base-url URL (or ROBOLAB_LLM_BASE_URL / OPENAI_BASE_URL), "
-                       "e.g. http://localhost:8000/v1")  # fmt: skip
+        missing.append(
+            "the endpoint: --base-url URL (or ROBOLAB_LLM_BASE_URL / OPENAI_BASE_URL), e.g. http://localhost:8000/v1"
+        )
     if not resolved_model:
         missing.append("the model: --model NAME (or ROBOLAB_LLM_MODEL)")
     if not resolved_key:
-        missing.append("the key: --api-key KEY (or ROBOLAB_LLM_API_KEY / OPENAI_API_KEY); "
-                       "any non-empty text for a local server without keys")  # fmt: skip
+        missing.append(
+            "the key: --api-key KEY (or ROBOLAB_LLM_API_KEY / OPENAI_API_KEY); "
+            "any non-empty text for a local server without keys"
+        )
     if missing:
-        raise RoboLabError("--llm openai needs " + "; ".join(missing) + ". Or use --llm offline, which needs no endpoint.")
+        raise RoboLabError(
+            "--llm openai needs " + "; ".join(missing) + ". Or use --llm offline, which needs no endpoint."
+        )
     return EndpointSettings(base_url=resolved_url, model=resolved_model, api_key=resolved_key)
 
 
@@ -85,11 +90,16 @@ def parse_json_object(raw: str) -> dict:
             except json.JSONDecodeError:
                 value = None
         if value is None:
-            raise GenerationError(f"the answer is not JSON ({exc.msg} at line {exc.lineno} column {exc.colno}); "
-                                  "answer with one JSON object and nothing else", raw) from None  # fmt: skip
+            raise GenerationError(
+                f"the answer is not JSON ({exc.msg} at line {exc.lineno} column {exc.colno}); "
+                "answer with one JSON object and nothing else",
+                raw,
+            ) from None
     if not isinstance(value, dict):
-        raise GenerationError(f"the answer is JSON but a {type(value).__name__}, not an object; "
-                              "answer with one JSON object ({...})", raw)  # fmt: skip
+        raise GenerationError(
+            f"the answer is JSON but a {type(value).__name__}, not an object; answer with one JSON object ({{...}})",
+            raw,
+        )
     return value
 
 
@@ -112,15 +122,21 @@ class ChatClient:
         try:
             completion = self._create(request)
         except openai.APIConnectionError as exc:
-            raise RoboLabError(f"cannot reach the LLM endpoint {self.settings.base_url}: {exc}. "
-                               "Check --base-url and that the server runs, or use --llm offline") from None  # fmt: skip
+            raise RoboLabError(
+                f"cannot reach the LLM endpoint {self.settings.base_url}: {exc}. "
+                "Check --base-url and that the server runs, or use --llm offline"
+            ) from None
         except openai.AuthenticationError as exc:
-            raise RoboLabError(f"the LLM endpoint {self.settings.base_url} refused the key: {exc}. "
-                               "Check --api-key / ROBOLAB_LLM_API_KEY") from None  # fmt: skip
+            raise RoboLabError(
+                f"the LLM endpoint {self.settings.base_url} refused the key: {exc}. "
+                "Check --api-key / ROBOLAB_LLM_API_KEY"
+            ) from None
         except openai.NotFoundError as exc:
-            raise RoboLabError(f"the LLM endpoint {self.settings.base_url} does not know model "
-                               f"'{self.settings.model}' or the path: {exc}. Check --model and --base-url "
-                               "(it usually ends in /v1)") from None  # fmt: skip
+            raise RoboLabError(
+                f"the LLM endpoint {self.settings.base_url} does not know model "
+                f"'{self.settings.model}' or the path: {exc}. Check --model and --base-url "
+                "(it usually ends in /v1)"
+            ) from None
         except openai.APIError as exc:
             raise RoboLabError(f"the LLM endpoint {self.settings.base_url} failed: {exc}") from None
         if not completion.choices:
@@ -133,8 +149,9 @@ class ChatClient:
 
         if self._json_mode:
             try:
-                return self._client.chat.completions.create(model=self.settings.model, messages=request,
-                                                            response_format={"type": "json_object"})  # fmt: skip
+                return self._client.chat.completions.create(
+                    model=self.settings.model, messages=request, response_format={"type": "json_object"}
+                )
             except openai.BadRequestError as exc:
                 if "response_format" not in str(exc) and "json" not in str(exc).lower():
                     raise
@@ -154,11 +171,17 @@ class Transcript:
     outcome: str = ""
     started: float = field(default_factory=time.time)
 
-    def record(self, messages: list[dict[str, str]], raw: str, feedback: list[str] | None = None,
-               **extra: Any) -> None:  # fmt: skip
+    def record(self, messages: list[dict[str, str]], raw: str, feedback: list[str] | None = None, **extra: Any) -> None:
         """One round: the conversation as sent (without the system prompt), the raw answer, the feedback to it."""
-        self.rounds.append({"round": len(self.rounds) + 1, "messages": [dict(m) for m in messages], "answer": raw,
-                            "feedback": list(feedback or []), **extra})  # fmt: skip
+        self.rounds.append(
+            {
+                "round": len(self.rounds) + 1,
+                "messages": [dict(m) for m in messages],
+                "answer": raw,
+                "feedback": list(feedback or []),
+                **extra,
+            }
+        )
 
     def add_feedback(self, feedback: list[str]) -> None:
         """Feedback found after the round was recorded (for example by the physics check)."""
@@ -172,9 +195,15 @@ class Transcript:
         return output.with_name(output.stem + ".transcript.json")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "prompt": self.prompt, "backend": self.backend, "outcome": self.outcome,
-                "seconds": round(time.time() - self.started, 3), "system": self.system,
-                "rounds": self.rounds}  # fmt: skip
+        return {
+            "kind": self.kind,
+            "prompt": self.prompt,
+            "backend": self.backend,
+            "outcome": self.outcome,
+            "seconds": round(time.time() - self.started, 3),
+            "system": self.system,
+            "rounds": self.rounds,
+        }
 
     def save(self, output: str | Path) -> Path:
         """Write the transcript next to OUTPUT; returns its path."""
@@ -186,12 +215,18 @@ class Transcript:
 
 def add_endpoint_arguments(parser: Any) -> None:
     """The options every `robolab generate` command shares: the backend and the endpoint's settings."""
-    parser.add_argument("--llm", choices=("openai", "offline"), default="offline",
-                        help="openai: an OpenAI-compatible chat endpoint (--base-url, --model, --api-key or "
-                        "ROBOLAB_LLM_BASE_URL / ROBOLAB_LLM_MODEL / ROBOLAB_LLM_API_KEY); offline: the deterministic "
-                        "generator, no network (default)")  # fmt: skip
-    parser.add_argument("--base-url", help="the endpoint, e.g. http://localhost:8000/v1 (default $ROBOLAB_LLM_BASE_URL, "
-                        "then $OPENAI_BASE_URL)")  # fmt: skip
+    parser.add_argument(
+        "--llm",
+        choices=("openai", "offline"),
+        default="offline",
+        help="openai: an OpenAI-compatible chat endpoint (--base-url, --model, --api-key or "
+        "ROBOLAB_LLM_BASE_URL / ROBOLAB_LLM_MODEL / ROBOLAB_LLM_API_KEY); offline: the deterministic "
+        "generator, no network (default)",
+    )
+    parser.add_argument(
+        "--base-url",
+        help="the endpoint, e.g. http://localhost:8000/v1 (default $ROBOLAB_LLM_BASE_URL, then $OPENAI_BASE_URL)",
+    )
     parser.add_argument("--model", help="the model name the endpoint serves (default $ROBOLAB_LLM_MODEL)")
     parser.add_argument("--api-key", help="the endpoint's key (default $ROBOLAB_LLM_API_KEY, then $OPENAI_API_KEY)")
     parser.add_argument("--timeout", type=float, default=120.0, help="seconds to wait for an answer (default 120)")

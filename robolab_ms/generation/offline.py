@@ -19,20 +19,113 @@ from robolab_ms.generation.proposal import MAX_OBJECTS
 
 NUMBERS = {"a": 1, "an": 1, "one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "pair": 2}
 SYNONYMS = {  # a prompt's word -> a word of catalog names or classes
-    "cup": "mug", "mugs": "mug", "teacup": "cup", "jar": "can", "tin": "can", "box": "box", "carton": "carton",
-    "cube": "block", "brick": "brick", "toy": "toy", "tray": "tray", "pot": "pot", "kettle": "teapot",
-    "pan": "pan", "phone": "smartphone", "mobile": "smartphone", "glasses": "eyeglasses", "drill": "drill",
-    "clamp": "clamp", "pen": "marker", "pens": "marker", "bucket": "pail", "basket": "basket", "crate": "crate",
-    "bin": "bin", "bowl": "bowl", "plate": "plate", "dish": "plate", "ball": "sphere", "tomato": "tomato",
-    "bread": "bread", "soap": "sponge", "bottle": "bottle", "jug": "jug", "book": "book", "ruler": "marker",
+    "cup": "mug",
+    "mugs": "mug",
+    "teacup": "cup",
+    "jar": "can",
+    "tin": "can",
+    "box": "box",
+    "carton": "carton",
+    "cube": "block",
+    "brick": "brick",
+    "toy": "toy",
+    "tray": "tray",
+    "pot": "pot",
+    "kettle": "teapot",
+    "pan": "pan",
+    "phone": "smartphone",
+    "mobile": "smartphone",
+    "glasses": "eyeglasses",
+    "drill": "drill",
+    "clamp": "clamp",
+    "pen": "marker",
+    "pens": "marker",
+    "bucket": "pail",
+    "basket": "basket",
+    "crate": "crate",
+    "bin": "bin",
+    "bowl": "bowl",
+    "plate": "plate",
+    "dish": "plate",
+    "ball": "sphere",
+    "tomato": "tomato",
+    "bread": "bread",
+    "soap": "sponge",
+    "bottle": "bottle",
+    "jug": "jug",
+    "book": "book",
+    "ruler": "marker",
 }
 CONNECTORS = {"and", ",", "plus"}
-MODIFIERS = {"large", "small", "big", "tall", "short", "wide", "slim", "medium", "mini", "plain", "curved", "ceramic",
-             "scan", "akita", "libero", "wooden", "square", "new", "deep", "long", "round", "flat", "left", "right",
-             "low", "brass", "clear", "screwtop", "gable", "wicker", "little", "tiny", "huge"}
-STOP = {"the", "a", "an", "some", "of", "to", "its", "their", "it", "them", "is", "are", "put", "place", "set",
-        "lay", "stand", "standing", "sits", "sitting", "there", "scene", "table", "desk", "counter", "on", "in",
-        "at", "by", "from", "cm", "m"}
+MODIFIERS = {
+    "large",
+    "small",
+    "big",
+    "tall",
+    "short",
+    "wide",
+    "slim",
+    "medium",
+    "mini",
+    "plain",
+    "curved",
+    "ceramic",
+    "scan",
+    "akita",
+    "libero",
+    "wooden",
+    "square",
+    "new",
+    "deep",
+    "long",
+    "round",
+    "flat",
+    "left",
+    "right",
+    "low",
+    "brass",
+    "clear",
+    "screwtop",
+    "gable",
+    "wicker",
+    "little",
+    "tiny",
+    "huge",
+}
+STOP = {
+    "the",
+    "a",
+    "an",
+    "some",
+    "of",
+    "to",
+    "its",
+    "their",
+    "it",
+    "them",
+    "is",
+    "are",
+    "put",
+    "place",
+    "set",
+    "lay",
+    "stand",
+    "standing",
+    "sits",
+    "sitting",
+    "there",
+    "scene",
+    "table",
+    "desk",
+    "counter",
+    "on",
+    "in",
+    "at",
+    "by",
+    "from",
+    "cm",
+    "m",
+}
 
 
 @dataclass
@@ -79,11 +172,20 @@ class OfflineSceneModel:
             if entry.is_fixture:
                 continue
             parts = name.split("_")
-            nouns = {part for part in parts if part.isalpha() and len(part) > 2 and part not in MODIFIERS
-                     and part not in self.colours and part not in STOP and part != "and"}  # fmt: skip
+            nouns = {
+                part
+                for part in parts
+                if part.isalpha()
+                and len(part) > 2
+                and part not in MODIFIERS
+                and part not in self.colours
+                and part not in STOP
+                and part != "and"
+            }
             phrases = {*nouns, " ".join(parts), entry.object_class}
-            phrases |= {" ".join(parts[i : i + 2]) for i in range(len(parts) - 1)
-                        if parts[i] in nouns and parts[i + 1] in nouns}  # fmt: skip
+            phrases |= {
+                " ".join(parts[i : i + 2]) for i in range(len(parts) - 1) if parts[i] in nouns and parts[i + 1] in nouns
+            }
             for phrase in phrases:
                 self.words.setdefault(phrase, []).append(name)
 
@@ -110,7 +212,7 @@ class OfflineSceneModel:
         required = re.findall(r"The scene must contain: ([a-z0-9_, ]+)", prompt)
         tokens = tokens_of(text)
         mentions = self._mentions(tokens)
-        for asset in (required[0].split(", ") if required else []):
+        for asset in required[0].split(", ") if required else []:
             if asset in self.catalog.names() and asset not in [m.asset for m in mentions]:
                 mentions.append(Mention(len(tokens), len(tokens), asset))
         new = [m for m in mentions if m.refers_to is None][:MAX_OBJECTS]
@@ -172,14 +274,19 @@ class OfflineSceneModel:
             if len(words) < length or any(word in STOP or not word.isalpha() for word in words):
                 continue
             phrase = " ".join(words[:-1] + [singular(words[-1])])
-            for candidate in (phrase, " ".join(words), SYNONYMS.get(phrase, ""),
-                              SYNONYMS.get(singular(words[-1]), "") if length == 1 else ""):  # fmt: skip
+            for candidate in (
+                phrase,
+                " ".join(words),
+                SYNONYMS.get(phrase, ""),
+                SYNONYMS.get(singular(words[-1]), "") if length == 1 else "",
+            ):
                 if candidate and candidate in self.words:
                     return length, self.words[candidate]
         return None
 
-    def _choose(self, candidates: list[str], colours: list[str], modifiers: list[str], words: list[str],
-                count: int) -> list[str]:  # fmt: skip
+    def _choose(
+        self, candidates: list[str], colours: list[str], modifiers: list[str], words: list[str], count: int
+    ) -> list[str]:
         """`count` catalog names for a phrase: matching colours and modifiers first, then the plainest name."""
         phrase = "_".join(words[:-1] + [singular(words[-1])])
 
@@ -258,13 +365,17 @@ class OfflineSceneModel:
             before = " ".join(tokens[max(0, group[0].start - 4) : group[0].start])
             after = " ".join(tokens[group[-1].end : group[-1].end + 4])
             names = [m.name for m in group]
-            if len(group) >= 2 and (re.search(r"\b(stack|pile|tower)(ed)? of\b", before)
-                                    or re.search(r"^(stacked|in a stack|piled)\b", after)):  # fmt: skip
+            if len(group) >= 2 and (
+                re.search(r"\b(stack|pile|tower)(ed)? of\b", before)
+                or re.search(r"^(stacked|in a stack|piled)\b", after)
+            ):
                 stacks.append(names)
                 relations.append({"relation": "stacked", "objects": names})
             if len(group) >= 2 and re.search(r"^(in a row|in a line|side by side|lined up)\b", after):
-                relations.extend({"relation": "aligned_with", "object": other, "reference": names[0], "axis": "row"}
-                                 for other in names[1:])  # fmt: skip
+                relations.extend(
+                    {"relation": "aligned_with", "object": other, "reference": names[0], "axis": "row"}
+                    for other in names[1:]
+                )
             if re.search(r"^(facing|turned towards|pointing at) (the robot|you)\b", after):
                 relations.extend({"relation": "facing", "object": name, "reference": "robot"} for name in names)
             if re.search(r"^(scattered|at random|randomly|messily)\b", after):
@@ -277,8 +388,9 @@ class OfflineSceneModel:
                         relation[key] = bottom[relation[key]]
         return [r for r in _without_repeats(relations) if r["relation"] == "stacked" or r["object"] != r["reference"]]
 
-    def _followed_by_relation(self, tokens: list[str], unit: list[Mention], units: list[list[Mention]],
-                              number: int) -> bool:  # fmt: skip
+    def _followed_by_relation(
+        self, tokens: list[str], unit: list[Mention], units: list[list[Mention]], number: int
+    ) -> bool:
         """Whether relation words (and no comma) lead from this unit to the next one."""
         if number + 1 >= len(units):
             return False

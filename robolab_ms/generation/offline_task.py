@@ -37,8 +37,13 @@ from robolab_ms.generation.llm import GenerationError
 from robolab_ms.scene import SceneSpec
 
 INSTRUCTION_PREFIX = "Instruction: "  # the first line of the task prompt's user message
-SIDES = {"left_of": "left of", "right_of": "right of", "in_front_of": "in front of", "behind": "behind",
-         "next_to": "next to"}  # fmt: skip
+SIDES = {
+    "left_of": "left of",
+    "right_of": "right of",
+    "in_front_of": "in front of",
+    "behind": "behind",
+    "next_to": "next to",
+}
 MAX_EPISODE_SECONDS = 180.0
 
 
@@ -83,8 +88,11 @@ class OfflineTaskModel:
         answer: dict[str, Any] = {
             "episode_seconds": episode_seconds(condition),
             "attributes": attributes,
-            "instructions": {"default": tidy(instruction), "vague": self.vague(condition, chosen),
-                             "specific": self.specific(condition)},  # fmt: skip
+            "instructions": {
+                "default": tidy(instruction),
+                "vague": self.vague(condition, chosen),
+                "specific": self.specific(condition),
+            },
             "success": [condition],
         }
         subtasks = staged_subtasks(condition)
@@ -99,13 +107,14 @@ class OfflineTaskModel:
         main = reading.main()
         if main is None:
             missing = f" The scene has no {', no '.join(sorted(set(reading.missing)))}." if reading.missing else ""
-            raise GenerationError("the offline backend found no action it knows in the instruction (put in / on, "
-                                  "left of, right of, in front of, behind, next to, centre of the table, pick up, "
-                                  f"stand upright, take out of, stack, throw away, clear).{missing} Objects of the "
-                                  f"scene: {', '.join(objects)}")  # fmt: skip
+            raise GenerationError(
+                "the offline backend found no action it knows in the instruction (put in / on, "
+                "left of, right of, in front of, behind, next to, centre of the table, pick up, "
+                f"stand upright, take out of, stack, throw away, clear).{missing} Objects of the "
+                f"scene: {', '.join(objects)}"
+            )
         placing = ("in", "to", "away")
-        actions = [a for a in reading.actions
-                   if a.kind == main.kind or (main.kind in placing and a.kind in placing)]  # fmt: skip
+        actions = [a for a in reading.actions if a.kind == main.kind or (main.kind in placing and a.kind in placing)]
         if main.kind in ("in", "to", "away") and len(actions) > 1:
             references = {self._reference(a) for a in actions}
             if len(references) > 1:
@@ -113,13 +122,22 @@ class OfflineTaskModel:
                 for action in actions:
                     groups.setdefault(self._reference(action), []).extend(self._targets(action)[0])
                 return {"predicate": "groups_in_containers", "groups": groups, "require_gripper_detached": True}, [
-                    m for a in actions for m in a.targets]  # fmt: skip
+                    m for a in actions for m in a.targets
+                ]
             if reading.ordered and all(len(self._targets(a)[0]) == 1 for a in actions):
                 names = [self._targets(a)[0][0] for a in actions]
-                return {"predicate": "placed_in_container_in_order", "objects": names,
-                        "container": self._reference(main)}, [m for a in actions for m in a.targets]  # fmt: skip
-            merged = Action(kind=main.kind, word=main.word, position=main.position,
-                            targets=[m for a in actions for m in a.targets], reference=main.reference)  # fmt: skip
+                return {
+                    "predicate": "placed_in_container_in_order",
+                    "objects": names,
+                    "container": self._reference(main),
+                }, [m for a in actions for m in a.targets]
+            merged = Action(
+                kind=main.kind,
+                word=main.word,
+                position=main.position,
+                targets=[m for a in actions for m in a.targets],
+                reference=main.reference,
+            )
             main = merged
         kind = main.kind
         if kind == "clear":
@@ -127,15 +145,20 @@ class OfflineTaskModel:
         names, logical, k = self._targets(main)
         if not names:
             lacking = f" (the scene has no {', no '.join(sorted(set(reading.missing)))})" if reading.missing else ""
-            raise GenerationError(f"the offline backend found no object of the scene to move for '{main.word}'"
-                                  f"{lacking}. Objects of the scene: {', '.join(objects)}")  # fmt: skip
+            raise GenerationError(
+                f"the offline backend found no object of the scene to move for '{main.word}'"
+                f"{lacking}. Objects of the scene: {', '.join(objects)}"
+            )
         condition: dict[str, Any] = {}
         if kind in ("in", "to", "away", "on"):
             reference = self._reference(main)
             entry = objects[reference].entry
-            if kind == "on" and (not entry.is_fixture or "top" in main.word) or (
-                    kind == "to" and not entry.is_container) or (
-                    kind == "in" and not entry.is_container and not entry.is_fixture):  # fmt: skip
+            if (
+                kind == "on"
+                and (not entry.is_fixture or "top" in main.word)
+                or (kind == "to" and not entry.is_container)
+                or (kind == "in" and not entry.is_container and not entry.is_fixture)
+            ):
                 condition = {"predicate": "on_top", "objects": names, "reference": reference}
             else:
                 condition = {"predicate": "in_container", "objects": names, "container": reference}
@@ -148,24 +171,39 @@ class OfflineTaskModel:
                 condition = {"predicate": "stacked", "objects": [bottom, *names], "order": "bottom_to_top"}
             else:
                 if len(names) < 2:
-                    raise GenerationError("a stack needs at least two objects; the instruction names "
-                                          + ", ".join(names))  # fmt: skip
+                    raise GenerationError(
+                        "a stack needs at least two objects; the instruction names " + ", ".join(names)
+                    )
                 condition = {"predicate": "stacked", "objects": names}
             return condition, main.targets
         elif kind in SPATIAL and kind != "center":
-            condition = {"predicate": kind, "objects": names, "reference": self._reference(main),
-                         "require_gripper_detached": True}  # fmt: skip
+            condition = {
+                "predicate": kind,
+                "objects": names,
+                "reference": self._reference(main),
+                "require_gripper_detached": True,
+            }
         elif kind == "center":
-            condition = {"predicate": "on_center", "objects": names, "reference": "table", "tolerance": 0.05,
-                         "require_contact_with": True, "require_gripper_detached": True}  # fmt: skip
+            condition = {
+                "predicate": "on_center",
+                "objects": names,
+                "reference": "table",
+                "tolerance": 0.05,
+                "require_contact_with": True,
+                "require_gripper_detached": True,
+            }
         elif kind == "pick":
             condition = {"predicate": "picked_up", "objects": names}
         elif kind == "upright":
             condition = {"predicate": "upright", "objects": names, "require_gripper_detached": True}
         elif kind == "out":
-            condition = {"predicate": "outside_of_and_on_surface", "objects": names,
-                         "container": self._reference(main, names), "surface": "table",
-                         "require_gripper_detached": True}  # fmt: skip
+            condition = {
+                "predicate": "outside_of_and_on_surface",
+                "objects": names,
+                "container": self._reference(main, names),
+                "surface": "table",
+                "require_gripper_detached": True,
+            }
         if logical != "all":
             condition["logical"] = logical
         if logical == "choose":
@@ -229,8 +267,11 @@ class OfflineTaskModel:
                 holding = [c for c in candidates if any(rests_in(objects[t], objects[c]) for t in targets)]
                 candidates = holding or candidates
             return candidates[0]
-        containers = [name for name, obj in objects.items()
-                      if (obj.entry.is_container or obj.entry.is_fixture) and name not in targets]  # fmt: skip
+        containers = [
+            name
+            for name, obj in objects.items()
+            if (obj.entry.is_container or obj.entry.is_fixture) and name not in targets
+        ]
         if action.kind == "out" and targets:
             holding = [c for c in containers if any(rests_in(objects[t], objects[c]) for t in targets)]
             if holding:
@@ -240,31 +281,54 @@ class OfflineTaskModel:
         if len(containers) == 1:
             return containers[0]
         what = f"'{action.reference.text}'" if action.reference is not None else "a container"
-        raise GenerationError(f"the offline backend cannot tell which object is {what} for '{action.word}': the "
-                              f"scene's containers are {', '.join(containers) or 'none'}")  # fmt: skip
+        raise GenerationError(
+            f"the offline backend cannot tell which object is {what} for '{action.word}': the "
+            f"scene's containers are {', '.join(containers) or 'none'}"
+        )
 
     def _clear(self, action: Action) -> dict[str, Any]:
-        """"Clear the plate": every object resting on or over the reference, out of it and on the table."""
+        """ "Clear the plate": every object resting on or over the reference, out of it and on the table."""
         objects = self.vocabulary.objects
         reference = self._reference(action)
         host = objects[reference]
         reach = max(float(host.entry.dimensions[0]), float(host.entry.dimensions[1])) / 2
-        names = [name for name, obj in objects.items() if name != reference and not obj.entry.is_fixture
-                 and (obj.on == reference or (obj.xy[0] - host.xy[0]) ** 2 + (obj.xy[1] - host.xy[1]) ** 2
-                      < reach**2)]  # fmt: skip
+        names = [
+            name
+            for name, obj in objects.items()
+            if name != reference
+            and not obj.entry.is_fixture
+            and (obj.on == reference or (obj.xy[0] - host.xy[0]) ** 2 + (obj.xy[1] - host.xy[1]) ** 2 < reach**2)
+        ]
         if not names:
             raise GenerationError(f"nothing rests on '{reference}', so there is nothing to clear")
-        return {"predicate": "outside_of_and_on_surface", "objects": names, "container": reference,
-                "surface": "table", "require_gripper_detached": True}  # fmt: skip
+        return {
+            "predicate": "outside_of_and_on_surface",
+            "objects": names,
+            "container": reference,
+            "surface": "table",
+            "require_gripper_detached": True,
+        }
 
     # ------------------------------------------------------------------------------------------------ instructions
     def _vague_name(self, name: str) -> str:
         """A vaguer name of an object: its class when no other movable object of the scene shares it."""
         objects = self.vocabulary.objects
         entry = objects[name].entry
-        word = {"fruit": "fruit", "vegetable": "vegetable", "food": "food", "tableware": "dish", "utensil": "utensil",
-                "tool": "tool", "toy": "toy", "block": "block", "electronics": "device", "bottle": "bottle",
-                "can": "tin", "box": "box", "container": "container"}.get(entry.object_class, "thing")  # fmt: skip
+        word = {
+            "fruit": "fruit",
+            "vegetable": "vegetable",
+            "food": "food",
+            "tableware": "dish",
+            "utensil": "utensil",
+            "tool": "tool",
+            "toy": "toy",
+            "block": "block",
+            "electronics": "device",
+            "bottle": "bottle",
+            "can": "tin",
+            "box": "box",
+            "container": "container",
+        }.get(entry.object_class, "thing")
         same = [n for n, o in objects.items() if o.entry.object_class == entry.object_class and not o.entry.is_fixture]
         return word if len(same) == 1 else objects[name].noun()
 
@@ -273,8 +337,13 @@ class OfflineTaskModel:
         predicate = condition["predicate"]
         names = _moved(condition)
         many = len(names) > 1
-        what = "things" if many and len({self._vague_name(n) for n in names}) > 1 else (
-            self._vague_name(names[0]) + ("s" if many else "")) if names else "things"  # fmt: skip
+        what = (
+            "things"
+            if many and len({self._vague_name(n) for n in names}) > 1
+            else (self._vague_name(names[0]) + ("s" if many else ""))
+            if names
+            else "things"
+        )
         logical = condition.get("logical", "all")
         if logical == "all":
             what = f"the {what}"
@@ -293,8 +362,13 @@ class OfflineTaskModel:
                 return "Pile them up into one tower."
             return f"Put one {self._vague_name(names[1])} on the other."
         if predicate in SIDES:
-            side = {"left_of": "left side", "right_of": "right side", "in_front_of": "near side",
-                    "behind": "far side", "next_to": "side"}[predicate]  # fmt: skip
+            side = {
+                "left_of": "left side",
+                "right_of": "right side",
+                "in_front_of": "near side",
+                "behind": "far side",
+                "next_to": "side",
+            }[predicate]
             return f"Move {what} to the {where}'s {side}."
         if predicate == "on_center":
             return f"Move {what} to the middle of the table."
@@ -330,8 +404,10 @@ class OfflineTaskModel:
             steps = ", then ".join(the(n) for n in names)
             return f"Put {steps} inside {the(place)}, in that order, letting go of each."
         if predicate == "groups_in_containers":
-            parts = [f"{_listing([objects[n].described() for n in members], 'and')} into {the(container)}"
-                     for container, members in condition["groups"].items()]  # fmt: skip
+            parts = [
+                f"{_listing([objects[n].described() for n in members], 'and')} into {the(container)}"
+                for container, members in condition["groups"].items()
+            ]
             return "Put " + "; and ".join(parts) + ", letting go of each."
         if predicate == "on_top":
             return f"Pick up {subject} and set {it} down on top of {the(place)}" + release
@@ -340,8 +416,10 @@ class OfflineTaskModel:
                 return f"Pick up {the(names[1])} and set it down squarely on top of {the(names[0])}, then let go."
             return f"Stack {listed} into one tower, one on top of the other."
         if predicate in SIDES:
-            return (f"Pick up {subject} and set {it} down on the table {SIDES[predicate]} {the(place)}, as seen from "
-                    "the robot" + release)  # fmt: skip
+            return (
+                f"Pick up {subject} and set {it} down on the table {SIDES[predicate]} {the(place)}, as seen from "
+                "the robot" + release
+            )
         if predicate == "on_center":
             return f"Pick up {subject} and set {it} down within five centimetres of the table's centre" + release
         if predicate == "picked_up":
@@ -352,7 +430,7 @@ class OfflineTaskModel:
 
 
 def _listing(descriptions: list[str], word: str) -> str:
-    """"the red mug, the white bowl and the two yellow bananas": equal descriptions counted together."""
+    """ "the red mug, the white bowl and the two yellow bananas": equal descriptions counted together."""
     counts: dict[str, int] = {}
     for text in descriptions:
         counts[text] = counts.get(text, 0) + 1
@@ -394,9 +472,12 @@ def attributes_of(reading: Reading, condition: dict[str, Any]) -> list[str]:
         found.append("semantics")
     if any(m.quantity == "count" for m in mentions) or condition.get("logical") == "choose":
         found.append("counting")
-    if condition.get("logical") == "any" and any(a.alternatives for a in reading.actions) or (
-            len({m.text for m in mentions}) > 1 and predicate != "groups_in_containers") or (
-            predicate == "placed_in_container_in_order"):  # fmt: skip
+    if (
+        condition.get("logical") == "any"
+        and any(a.alternatives for a in reading.actions)
+        or (len({m.text for m in mentions}) > 1 and predicate != "groups_in_containers")
+        or (predicate == "placed_in_container_in_order")
+    ):
         found.append("conjunction")
     positioned = [m for a in reading.actions for m in [*a.targets, *([a.reference] if a.reference else [])]]
     if predicate in SIDES or predicate == "on_center" or any(m.position for m in positioned):
@@ -432,12 +513,16 @@ def staged_subtasks(condition: dict[str, Any]) -> list[dict[str, Any]] | None:
     single = {"objects": objects[:1]} if condition.get("logical") in ("any", "choose") else {"objects": objects}
     if predicate in (*SIDES, "on_center") and condition.get("logical", "all") == "all":
         step = {key: value for key, value in condition.items() if key not in ("objects", "logical", "k")}
-        return [{**single, "steps": [{"predicate": "grasped"}]},
-                {**single, "steps": [{"predicate": "picked_up", "distance": 0.02}]},
-                {**single, "steps": [step]}]  # fmt: skip
+        return [
+            {**single, "steps": [{"predicate": "grasped"}]},
+            {**single, "steps": [{"predicate": "picked_up", "distance": 0.02}]},
+            {**single, "steps": [step]},
+        ]
     if predicate == "picked_up" and condition.get("logical", "all") == "all":
-        return [{**single, "steps": [{"predicate": "grasped"}]},
-                {**single, "steps": [{"predicate": "picked_up", "distance": 0.05}]}]  # fmt: skip
+        return [
+            {**single, "steps": [{"predicate": "grasped"}]},
+            {**single, "steps": [{"predicate": "picked_up", "distance": 0.05}]},
+        ]
     return None
 
 

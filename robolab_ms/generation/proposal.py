@@ -25,11 +25,13 @@ from robolab_ms.catalog import Catalog
 from robolab_ms.errors import did_you_mean
 from robolab_ms.scene import DIRECTIONS, SAFE_PLACEMENT
 
-FRAME = ("Frame: the robot stands at the origin looking along +x. x points away from the robot, y to the robot's "
-         "left, z up; the table top is z = 0 and its usable part spans x 0.25..0.85 m, y -0.45..0.45 m. "
-         "'left of' means larger y, 'right of' smaller y, 'in front of' closer to the robot (smaller x), 'behind' "
-         "farther from it (larger x), all as seen from the robot. A yaw turns an object about z, counter-clockwise "
-         "seen from above; an object 'faces' a target when its own +x axis points at it.")  # fmt: skip
+FRAME = (
+    "Frame: the robot stands at the origin looking along +x. x points away from the robot, y to the robot's "
+    "left, z up; the table top is z = 0 and its usable part spans x 0.25..0.85 m, y -0.45..0.45 m. "
+    "'left of' means larger y, 'right of' smaller y, 'in front of' closer to the robot (smaller x), 'behind' "
+    "farther from it (larger x), all as seen from the robot. A yaw turns an object about z, counter-clockwise "
+    "seen from above; an object 'faces' a target when its own +x axis points at it."
+)
 
 SUPPORTS = ("on_top_of", "inside", "stacked")
 RELATIONS = ("on_table", *DIRECTIONS, "next_to", "aligned_with", "facing", "random_yaw", *SUPPORTS, "anywhere")
@@ -66,8 +68,13 @@ class Relation:
             return "stack " + " under ".join(f"'{name}'" for name in self.objects)
         if self.kind in ("random_yaw", "anywhere"):
             return f"'{self.subject}' {self.kind.replace('_', ' ')}"
-        words = {"on_top_of": "on top of", "inside": "inside", "next_to": "next to", "aligned_with": "aligned with",
-                 "facing": "facing"}.get(self.kind, self.kind.replace("_", " "))  # fmt: skip
+        words = {
+            "on_top_of": "on top of",
+            "inside": "inside",
+            "next_to": "next to",
+            "aligned_with": "aligned with",
+            "facing": "facing",
+        }.get(self.kind, self.kind.replace("_", " "))
         extra = f" at {self.distance:g} m" if self.distance is not None else ""
         extra += f" in a {self.axis}" if self.axis else ""
         return f"'{self.subject}' {words} '{self.reference}'{extra}"
@@ -136,8 +143,10 @@ def system_prompt(catalog: Catalog, required: list[str] | None = None) -> str:
         if entry.is_fixture:
             continue
         size = "x".join(f"{value * 100:.0f}" for value in entry.dimensions)
-        lines.append(f"{name}{'*' if entry.is_container else ''}: {entry.object_class}, "
-                     f"{'/'.join(entry.colors) or '-'}, {size} cm")  # fmt: skip
+        lines.append(
+            f"{name}{'*' if entry.is_container else ''}: {entry.object_class}, "
+            f"{'/'.join(entry.colors) or '-'}, {size} cm"
+        )
     return "\n".join(lines)
 
 
@@ -168,8 +177,10 @@ def read_proposal(answer: dict[str, Any], catalog: Catalog) -> SceneProposal:
             problems.append(f"objects[{index}]: '{asset}' is a fixture (a shelf or rack); choose a movable object")
             continue
         if not _NAME.match(name) or name in ("table", "robot", "robot_pedestal"):
-            problems.append(f"objects[{index}]: name '{name}' must start with a letter and use letters, digits and "
-                            "underscores only, and not be table or robot")  # fmt: skip
+            problems.append(
+                f"objects[{index}]: name '{name}' must start with a letter and use letters, digits and "
+                "underscores only, and not be table or robot"
+            )
             continue
         if name in proposal.objects:
             problems.append(f"objects[{index}]: name '{name}' is used twice; give each object a unique name")
@@ -206,8 +217,9 @@ def _read_relation(index: int, item: Any, proposal: SceneProposal, catalog: Cata
             return ROBOT
         if not isinstance(value, str) or value not in proposal.objects:
             listed = list(proposal.objects)
-            problems.append(f"{where} ({kind}): \"{key}\" {value!r} is not one of the objects. "
-                            f"{did_you_mean(str(value), listed)}")  # fmt: skip
+            problems.append(
+                f'{where} ({kind}): "{key}" {value!r} is not one of the objects. {did_you_mean(str(value), listed)}'
+            )
             return None
         return value
 
@@ -215,9 +227,13 @@ def _read_relation(index: int, item: Any, proposal: SceneProposal, catalog: Cata
         value = item.get(key)
         if value is None and not required:
             return None
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) \
-                or not low <= value <= high:  # fmt: skip
-            problems.append(f"{where} ({kind}): \"{key}\" must be a number in [{low:g}, {high:g}], got {value!r}")
+        if (
+            not isinstance(value, (int, float))
+            or isinstance(value, bool)
+            or not math.isfinite(value)
+            or not low <= value <= high
+        ):
+            problems.append(f'{where} ({kind}): "{key}" must be a number in [{low:g}, {high:g}], got {value!r}')
             return False
         return float(value)
 
@@ -231,8 +247,10 @@ def _read_relation(index: int, item: Any, proposal: SceneProposal, catalog: Cata
             return None
         for name in names:
             if name not in proposal.objects:
-                problems.append(f"{where} (stacked): {name!r} is not one of the objects. "
-                                f"{did_you_mean(str(name), list(proposal.objects))}")  # fmt: skip
+                problems.append(
+                    f"{where} (stacked): {name!r} is not one of the objects. "
+                    f"{did_you_mean(str(name), list(proposal.objects))}"
+                )
                 return None
         return Relation(kind, tuple(names), index=index)
     subject = object_name("object")
@@ -255,9 +273,14 @@ def _read_relation(index: int, item: Any, proposal: SceneProposal, catalog: Cata
         return None
     if kind == "inside" and not catalog[proposal.objects[reference]].is_container:
         containers = [name for name, asset in proposal.objects.items() if catalog[asset].is_container]
-        problems.append(f"{where} (inside): '{reference}' ({proposal.objects[reference]}) is not a container. "
-                        + (f"Containers among your objects: {', '.join(containers)}" if containers else
-                           "Add a container (marked * in the catalog) or use on_top_of"))  # fmt: skip
+        problems.append(
+            f"{where} (inside): '{reference}' ({proposal.objects[reference]}) is not a container. "
+            + (
+                f"Containers among your objects: {', '.join(containers)}"
+                if containers
+                else "Add a container (marked * in the catalog) or use on_top_of"
+            )
+        )
         return None
     distance = None
     if kind in DIRECTIONS or kind == "next_to":
@@ -268,8 +291,9 @@ def _read_relation(index: int, item: Any, proposal: SceneProposal, catalog: Cata
     if kind == "aligned_with":
         axis = item.get("axis", "row")
         if axis not in ALIGN_AXES:
-            problems.append(f"{where} (aligned_with): \"axis\" must be 'row' (same x) or 'column' (same y), "
-                            f"got {axis!r}")  # fmt: skip
+            problems.append(
+                f"{where} (aligned_with): \"axis\" must be 'row' (same x) or 'column' (same y), got {axis!r}"
+            )
             return None
     return Relation(kind, (subject,), reference=reference, distance=distance, axis=axis, index=index)
 
@@ -285,23 +309,33 @@ def contradictions(proposal: SceneProposal) -> list[str]:
             for name in subjects:
                 earlier = placed_by.get(name)
                 if earlier is not None:
-                    problems.append(f"{relation.where()} ({relation.describe()}) contradicts {earlier.where()} "
-                                    f"({earlier.describe()}): '{name}' cannot be in both places; keep one")  # fmt: skip
+                    problems.append(
+                        f"{relation.where()} ({relation.describe()}) contradicts {earlier.where()} "
+                        f"({earlier.describe()}): '{name}' cannot be in both places; keep one"
+                    )
                 else:
                     placed_by[name] = relation
-        if relation.kind == "stacked" and relation.objects[0] in placed_by \
-                and placed_by[relation.objects[0]].kind in ("on_top_of", "inside"):  # fmt: skip
+        if (
+            relation.kind == "stacked"
+            and relation.objects[0] in placed_by
+            and placed_by[relation.objects[0]].kind in ("on_top_of", "inside")
+        ):
             earlier = placed_by[relation.objects[0]]
-            problems.append(f"{relation.where()} ({relation.describe()}) starts on the table, but {earlier.where()} "
-                            f"({earlier.describe()}) puts '{relation.objects[0]}' on another object")  # fmt: skip
+            problems.append(
+                f"{relation.where()} ({relation.describe()}) starts on the table, but {earlier.where()} "
+                f"({earlier.describe()}) puts '{relation.objects[0]}' on another object"
+            )
     support = proposal.support_of()
     for name in support:
         chain, current = [name], name
         while current in support:
             current = support[current]
             if current in chain:
-                problems.append("the supports form a loop (" + " on ".join(f"'{n}'" for n in chain + [current])
-                                + "); let the bottom object stand on the table")  # fmt: skip
+                problems.append(
+                    "the supports form a loop ("
+                    + " on ".join(f"'{n}'" for n in chain + [current])
+                    + "); let the bottom object stand on the table"
+                )
                 break
             chain.append(current)
     # strict orders along x and y: an edge a -> b means a's coordinate is larger than b's
@@ -313,8 +347,10 @@ def contradictions(proposal: SceneProposal) -> list[str]:
                 continue
             a, b = proposal.base_of(relation.subject), proposal.base_of(relation.reference)
             if a == b:
-                problems.append(f"{relation.where()} ({relation.describe()}): the two objects are in one pile, so "
-                                "they cannot be beside each other; drop one of the relations")  # fmt: skip
+                problems.append(
+                    f"{relation.where()} ({relation.describe()}): the two objects are in one pile, so "
+                    "they cannot be beside each other; drop one of the relations"
+                )
                 continue
             larger, smaller = (a, b) if DIRECTIONS[relation.kind][axis] > 0 else (b, a)
             edges.setdefault(larger, set()).add(smaller)
@@ -324,8 +360,10 @@ def contradictions(proposal: SceneProposal) -> list[str]:
             involved = sorted({origin[(a, b)].index for a, b in zip(cycle, cycle[1:]) if (a, b) in origin})
             by_index = {relation.index: relation for relation in proposal.relations}
             described = "; ".join(f"relations[{i}] ({by_index[i].describe()})" for i in involved)
-            problems.append(f"contradictory directions: {described} go round in a circle "
-                            f"({' > '.join(cycle)} along {'xy'[axis]}); drop or reverse one of them")  # fmt: skip
+            problems.append(
+                f"contradictory directions: {described} go round in a circle "
+                f"({' > '.join(cycle)} along {'xy'[axis]}); drop or reverse one of them"
+            )
     fixed = {relation.subject: relation for relation in proposal.relations if relation.kind == "on_table"}
     for relation in proposal.relations:
         if relation.kind in DIRECTIONS and relation.subject in fixed and relation.reference in fixed:
@@ -334,9 +372,11 @@ def contradictions(proposal: SceneProposal) -> list[str]:
             ux, uy = DIRECTIONS[relation.kind]
             planar = math.hypot(dx, dy)
             if planar < 1e-9 or dx * ux + dy * uy < math.cos(math.radians(45.0)) * planar:
-                problems.append(f"{relation.where()} ({relation.describe()}) contradicts the fixed places "
-                                f"{a.where()} and {b.where()}: at those positions it does not hold; change a "
-                                "position or drop the relation")  # fmt: skip
+                problems.append(
+                    f"{relation.where()} ({relation.describe()}) contradicts the fixed places "
+                    f"{a.where()} and {b.where()}: at those positions it does not hold; change a "
+                    "position or drop the relation"
+                )
     return problems
 
 
@@ -350,7 +390,7 @@ def _find_cycle(edges: dict[str, set[str]]) -> list[str] | None:
         path.append(node)
         for following in sorted(edges.get(node, ())):
             if state.get(following) == 1:
-                return path[path.index(following):] + [following]
+                return path[path.index(following) :] + [following]
             if state.get(following) is None:
                 found = visit(following)
                 if found:

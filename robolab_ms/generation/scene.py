@@ -76,10 +76,18 @@ class SceneGeneration:
         return len(self.objects) - (len(self.settled.fallen) if self.settled else 0)
 
 
-def generate_scene(prompt: str, out: str | Path, model: JsonModel, method: str = "solver",
-                   objects: list[str] | None = None, rounds: int = DEFAULT_ROUNDS, seed: int = 0,
-                   render: bool = True, catalog: Catalog | None = None,
-                   requested: list[Relation] | None = None) -> SceneGeneration:  # fmt: skip
+def generate_scene(
+    prompt: str,
+    out: str | Path,
+    model: JsonModel,
+    method: str = "solver",
+    objects: list[str] | None = None,
+    rounds: int = DEFAULT_ROUNDS,
+    seed: int = 0,
+    render: bool = True,
+    catalog: Catalog | None = None,
+    requested: list[Relation] | None = None,
+) -> SceneGeneration:
     """Generate a scene for `prompt` into `out` (a .yaml path; its stem becomes the scene's name). `objects`:
     catalog names the scene must contain. `requested`: the relations to judge the result by (default: those of
     the first answer; the grid baseline's answers have none). The transcript is saved whatever happens."""
@@ -117,8 +125,17 @@ def _user_prompt(prompt: str, objects: list[str] | None) -> str:
     return prompt + (f"\n\nThe scene must contain: {', '.join(objects)}" if objects else "")
 
 
-def _solver_rounds(prompt: str, out: Path, model: JsonModel, objects: list[str] | None, rounds: int, seed: int,
-                   catalog: Catalog, transcript: Transcript, result: SceneGeneration) -> None:  # fmt: skip
+def _solver_rounds(
+    prompt: str,
+    out: Path,
+    model: JsonModel,
+    objects: list[str] | None,
+    rounds: int,
+    seed: int,
+    catalog: Catalog,
+    transcript: Transcript,
+    result: SceneGeneration,
+) -> None:
     system = system_prompt(catalog, objects)
     transcript.system = system
     messages = [{"role": "user", "content": _user_prompt(prompt, objects)}]
@@ -139,7 +156,7 @@ def _solver_rounds(prompt: str, out: Path, model: JsonModel, objects: list[str] 
             feedback = list(proposal.problems)
             missing = [name for name in objects or [] if name not in proposal.objects.values()]
             if missing:
-                feedback.append(f"the scene must contain {', '.join(missing)}; add them to \"objects\"")
+                feedback.append(f'the scene must contain {", ".join(missing)}; add them to "objects"')
             if not feedback:
                 feedback = _place_and_check(proposal, out, seed, catalog, result, final=last)
         transcript.record(messages, raw, feedback)
@@ -148,18 +165,25 @@ def _solver_rounds(prompt: str, out: Path, model: JsonModel, objects: list[str] 
             result.problems = []
             return
         result.problems = feedback
-        messages = [*messages, {"role": "assistant", "content": raw},
-                    {"role": "user", "content": feedback_message(feedback)}]  # fmt: skip
+        messages = [
+            *messages,
+            {"role": "assistant", "content": raw},
+            {"role": "user", "content": feedback_message(feedback)},
+        ]
 
 
 def feedback_message(feedback: list[str]) -> str:
     """The plain feedback the model gets for its last answer."""
-    return ("Your last answer could not be used as it is:\n" + "\n".join(f"- {line}" for line in feedback)
-            + "\nAnswer again with the whole corrected JSON object.")  # fmt: skip
+    return (
+        "Your last answer could not be used as it is:\n"
+        + "\n".join(f"- {line}" for line in feedback)
+        + "\nAnswer again with the whole corrected JSON object."
+    )
 
 
-def _place_and_check(proposal: SceneProposal, out: Path, seed: int, catalog: Catalog, result: SceneGeneration,
-                     final: bool) -> list[str]:  # fmt: skip
+def _place_and_check(
+    proposal: SceneProposal, out: Path, seed: int, catalog: Catalog, result: SceneGeneration, final: bool
+) -> list[str]:
     """Solve, write, load and settle one proposal; the feedback (empty when the scene is accepted)."""
     layout = solve_layout(proposal, catalog, seed)
     if layout.problems:
@@ -176,20 +200,25 @@ def _place_and_check(proposal: SceneProposal, out: Path, seed: int, catalog: Cat
         fell = " and fell off the table" if name in settled.fallen else ""
         support = spec.placement(name).on
         where = f" from '{support}'" if support else ""
-        feedback.append(f"'{name}' moved {drift * 100:.1f} cm{where}{fell} in the physics check (at most 2 cm "
-                        "is allowed): give it a larger support, put it inside a container, or stand it on the table")
+        feedback.append(
+            f"'{name}' moved {drift * 100:.1f} cm{where}{fell} in the physics check (at most 2 cm "
+            "is allowed): give it a larger support, put it inside a container, or stand it on the table"
+        )
     _record(result, proposal.objects, spec, settled, relaxed)
     if feedback or final:
         return feedback
     relaxed_indexes = {relation.index for relation, _ in layout.relaxed}
-    not_holding = [f"{relation.where()} ({relation.describe()}) does not hold after the physics check"
-                   for relation, holds in zip(judged, settled.holds["answer"])
-                   if not holds and relation.index not in relaxed_indexes]  # fmt: skip
+    not_holding = [
+        f"{relation.where()} ({relation.describe()}) does not hold after the physics check"
+        for relation, holds in zip(judged, settled.holds["answer"])
+        if not holds and relation.index not in relaxed_indexes
+    ]
     return relaxed + not_holding
 
 
-def _record(result: SceneGeneration, objects: dict[str, str], spec: SceneSpec, settled: SettleResult,
-            relaxed: list[str]) -> None:  # fmt: skip
+def _record(
+    result: SceneGeneration, objects: dict[str, str], spec: SceneSpec, settled: SettleResult, relaxed: list[str]
+) -> None:
     result.objects = dict(objects)
     result.scene_file = spec.file
     result.settled = settled
@@ -197,8 +226,16 @@ def _record(result: SceneGeneration, objects: dict[str, str], spec: SceneSpec, s
     result.collisions = placement_collisions(spec, load_catalog())
 
 
-def _grid_round(prompt: str, out: Path, model: JsonModel, objects: list[str] | None, seed: int, catalog: Catalog,
-                transcript: Transcript, result: SceneGeneration) -> None:  # fmt: skip
+def _grid_round(
+    prompt: str,
+    out: Path,
+    model: JsonModel,
+    objects: list[str] | None,
+    seed: int,
+    catalog: Catalog,
+    transcript: Transcript,
+    result: SceneGeneration,
+) -> None:
     system = grid_system_prompt(catalog, objects)
     transcript.system = system
     messages = [{"role": "user", "content": _user_prompt(prompt, objects)}]
@@ -222,8 +259,11 @@ def _grid_round(prompt: str, out: Path, model: JsonModel, objects: list[str] | N
     if not accepted:
         result.scene_file = None
     if not settled.stable:
-        problems = [*problems, "unstable after settling: " + ", ".join(
-            f"'{name}' moved {drift * 100:.1f} cm" for name, drift in settled.moved().items())]  # fmt: skip
+        problems = [
+            *problems,
+            "unstable after settling: "
+            + ", ".join(f"'{name}' moved {drift * 100:.1f} cm" for name, drift in settled.moved().items()),
+        ]
     transcript.add_feedback(problems)
     result.problems = problems
     result.accepted = accepted and settled.stable
@@ -243,8 +283,7 @@ def scene_data(poses: list[Pose], name: str, prompt: str) -> dict:
         items.append(item)
     description = " ".join(prompt.split())
     table = {"size": list(DEFAULT_TABLE_SIZE), "color": DEFAULT_TABLE_COLOR}
-    return {"name": name, "description": description, "table": table, "jitter": dict(OUTPUT_JITTER),
-            "objects": items}  # fmt: skip
+    return {"name": name, "description": description, "table": table, "jitter": dict(OUTPUT_JITTER), "objects": items}
 
 
 def write_scene(poses: list[Pose], out: Path, prompt: str, catalog: Catalog, method: str) -> SceneSpec:
@@ -253,12 +292,17 @@ def write_scene(poses: list[Pose], out: Path, prompt: str, catalog: Catalog, met
 
     data = scene_data(poses, out.stem, prompt)
     make_folder(out.parent, "--out")
-    header = (f"# Generated by `robolab generate scene` (method {method}); the prompt is the description.\n"
-              "# Frame: x away from the robot, y to its left, z up; the table top is z = 0.\n")  # fmt: skip
-    body = yaml.safe_dump({key: data[key] for key in ("name", "description")}, sort_keys=False, width=120,
-                          allow_unicode=True)  # fmt: skip
-    lines = [f"{key}: " + yaml.safe_dump(data[key], default_flow_style=True, sort_keys=False).strip()
-             for key in ("table", "jitter")]  # fmt: skip
+    header = (
+        f"# Generated by `robolab generate scene` (method {method}); the prompt is the description.\n"
+        "# Frame: x away from the robot, y to its left, z up; the table top is z = 0.\n"
+    )
+    body = yaml.safe_dump(
+        {key: data[key] for key in ("name", "description")}, sort_keys=False, width=120, allow_unicode=True
+    )
+    lines = [
+        f"{key}: " + yaml.safe_dump(data[key], default_flow_style=True, sort_keys=False).strip()
+        for key in ("table", "jitter")
+    ]
     lines.append("objects:")
     for item in data["objects"]:
         lines.append("  - " + yaml.safe_dump(item, default_flow_style=True, sort_keys=False, width=200).strip())
@@ -269,11 +313,27 @@ def write_scene(poses: list[Pose], out: Path, prompt: str, catalog: Catalog, met
 def spec_from_poses(poses: list[Pose], name: str, prompt: str, catalog: Catalog, file: Path) -> SceneSpec:
     """A SceneSpec of table-standing objects without the loader's layout checks (for the grid baseline, whose
     outlines may overlap): each object resting upright on the table, SETTLE_CLEARANCE above it."""
-    placements = tuple(ObjectPlacement(pose.name, pose.asset, pose.xy, pose.yaw, IDENTITY_QUAT,
-                                       z=resting_height(catalog[pose.asset].points, IDENTITY_QUAT) + SETTLE_CLEARANCE)
-                       for pose in poses)  # fmt: skip
-    return SceneSpec(name=name, description=prompt, file=file, objects=placements, table_size=DEFAULT_TABLE_SIZE,
-                     table_rgba=(0.45, 0.3, 0.18, 1.0), jitter_xy=0.0, jitter_yaw=0.0)  # fmt: skip
+    placements = tuple(
+        ObjectPlacement(
+            pose.name,
+            pose.asset,
+            pose.xy,
+            pose.yaw,
+            IDENTITY_QUAT,
+            z=resting_height(catalog[pose.asset].points, IDENTITY_QUAT) + SETTLE_CLEARANCE,
+        )
+        for pose in poses
+    )
+    return SceneSpec(
+        name=name,
+        description=prompt,
+        file=file,
+        objects=placements,
+        table_size=DEFAULT_TABLE_SIZE,
+        table_rgba=(0.45, 0.3, 0.18, 1.0),
+        jitter_xy=0.0,
+        jitter_yaw=0.0,
+    )
 
 
 def placement_collisions(spec: SceneSpec, catalog: Catalog) -> int:
@@ -315,8 +375,14 @@ def render_preview(scene_file: Path, png: Path) -> Path:
         name = "Preview" + "".join(part.title() for part in spec.name.split("_") if part)
         task = Path(folder) / f"{name}.yaml"
         task.write_text(PROBE_TASK.format(name=name, scene=spec.name, obj=spec.objects[0].name), encoding="utf-8")
-        env = gym.make(register_task_file(task, replace=True), task=str(task), obs_mode="rgb",
-                       cameras=("external_left",), camera_width=PREVIEW_SIZE[0], camera_height=PREVIEW_SIZE[1])  # fmt: skip
+        env = gym.make(
+            register_task_file(task, replace=True),
+            task=str(task),
+            obs_mode="rgb",
+            cameras=("external_left",),
+            camera_width=PREVIEW_SIZE[0],
+            camera_height=PREVIEW_SIZE[1],
+        )
         try:
             obs, _ = env.reset(seed=0)
             rgb = obs["sensor_data"]["external_left"]["rgb"][0].cpu().numpy().astype(np.uint8)

@@ -93,8 +93,9 @@ def relation_holds(context, relation: Relation, present: set[str]) -> bool:
     if relation.kind == "on_table":
         position = context.position(subject)[0].cpu().numpy()
         lowest = float(context.corners(subject)[0, :, 2].min())
-        return bool(math.hypot(position[0] - relation.x, position[1] - relation.y) <= PLACE_TOLERANCE
-                    and lowest <= 0.01)  # fmt: skip
+        return bool(
+            math.hypot(position[0] - relation.x, position[1] - relation.y) <= PLACE_TOLERANCE and lowest <= 0.01
+        )
     if relation.kind in DIRECTIONS:
         holds = predicate(relation.kind, [subject], reference=reference)
         if holds and relation.distance is not None:

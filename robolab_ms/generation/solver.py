@@ -81,8 +81,7 @@ class Member:
     yaw: float
 
 
-def solve_piles(proposal: SceneProposal, catalog: Catalog, yaws: dict[str, float], layout: Layout
-                ) -> dict[str, Member]:  # fmt: skip
+def solve_piles(proposal: SceneProposal, catalog: Catalog, yaws: dict[str, float], layout: Layout) -> dict[str, Member]:
     """Each supported object's place on its support (relative), from real outlines; misfits go to `layout`."""
     support = proposal.support_of()
     kind_of: dict[str, str] = {}
@@ -125,7 +124,8 @@ def solve_piles(proposal: SceneProposal, catalog: Catalog, yaws: dict[str, float
                     layout.problems.append(
                         f"'{name}' ({size[0] * 100:.0f} x {size[1] * 100:.0f} cm) does not fit {where} '{parent}' "
                         f"(its {space} is {area[0] * 100:.0f} x {area[1] * 100:.0f} cm{shared}); choose a smaller "
-                        f"object, a larger {'container' if inside else 'support'}, or put it on the table")  # fmt: skip
+                        f"object, a larger {'container' if inside else 'support'}, or put it on the table"
+                    )
             slot_centre = centre.copy()
             slot_centre[along] += -area[along] / 2 + slot[along] * (index + 0.5)
             offset = slot_centre - rotation2(relative_yaw) @ child_centre
@@ -267,8 +267,12 @@ def solve_layout(proposal: SceneProposal, catalog: Catalog, seed: int = 0) -> La
             facing[relation.subject] = relation.reference
     members = solve_piles(proposal, catalog, yaws, layout)
     bases = [name for name in proposal.objects if name not in support]
-    bodies = {name: Body(name, pile_outline(name, proposal, catalog, members), np.zeros(2), yaws[name],
-                         facing=facing.get(name)) for name in bases}  # fmt: skip
+    bodies = {
+        name: Body(
+            name, pile_outline(name, proposal, catalog, members), np.zeros(2), yaws[name], facing=facing.get(name)
+        )
+        for name in bases
+    }
     constraints = []
     for relation in proposal.relations:
         if relation.kind in DIRECTIONS or relation.kind in ("next_to", "aligned_with"):
@@ -285,8 +289,13 @@ def solve_layout(proposal: SceneProposal, catalog: Catalog, seed: int = 0) -> La
         if relation.kind in DIRECTIONS and relation.distance is not None:
             least = constraint.least_distance(bodies, np.array(DIRECTIONS[relation.kind]))
             if relation.distance < least - 0.02:
-                layout.relaxed.append((relation, f"the distance {relation.distance:g} m is too short for the two "
-                                       f"outlines, which need at least {least:.2f} m centre to centre"))  # fmt: skip
+                layout.relaxed.append(
+                    (
+                        relation,
+                        f"the distance {relation.distance:g} m is too short for the two "
+                        f"outlines, which need at least {least:.2f} m centre to centre",
+                    )
+                )
     active = list(constraints)
     for _ in range(len(constraints) + len(fixed) + 1):
         converged = _iterate(bodies, active, layout)
@@ -295,8 +304,13 @@ def solve_layout(proposal: SceneProposal, catalog: Catalog, seed: int = 0) -> La
         victim = _most_violated(bodies, active)
         if victim is not None:
             active.remove(victim)
-            layout.relaxed.append((victim.relation, f"it could not hold together with the other relations and free "
-                                   f"space (missed by {victim.error(bodies) * 100:.1f} cm)"))  # fmt: skip
+            layout.relaxed.append(
+                (
+                    victim.relation,
+                    f"it could not hold together with the other relations and free "
+                    f"space (missed by {victim.error(bodies) * 100:.1f} cm)",
+                )
+            )
             continue
         crowded = [body for body in bodies.values() if body.fixed and _overlaps(body, bodies)]
         if not crowded:  # a stalemate: the relations hold but hold objects too close; relax one that ties them
@@ -309,12 +323,18 @@ def solve_layout(proposal: SceneProposal, catalog: Catalog, seed: int = 0) -> La
             layout.relaxed.append((victim.relation, "it kept objects closer than 1 cm to each other"))
             continue
         crowded[-1].fixed = False
-        layout.relaxed.append((fixed[crowded[-1].name], "that place overlaps other objects or leaves the reachable "
-                               "area, so the object was moved"))  # fmt: skip
+        layout.relaxed.append(
+            (
+                fixed[crowded[-1].name],
+                "that place overlaps other objects or leaves the reachable area, so the object was moved",
+            )
+        )
     if any(_overlaps(body, bodies) for body in bodies.values()):
-        layout.problems.append("the objects do not fit side by side in the reachable part of the table (x "
-                               f"{REACH['x'][0]}..{REACH['x'][1]} m, y {REACH['y'][0]}..{REACH['y'][1]} m); use "
-                               "fewer or smaller objects, or put some inside containers or on others")  # fmt: skip
+        layout.problems.append(
+            "the objects do not fit side by side in the reachable part of the table (x "
+            f"{REACH['x'][0]}..{REACH['x'][1]} m, y {REACH['y'][0]}..{REACH['y'][1]} m); use "
+            "fewer or smaller objects, or put some inside containers or on others"
+        )
     _face(bodies)
     for name in proposal.objects:
         if name in bodies:
@@ -325,8 +345,9 @@ def solve_layout(proposal: SceneProposal, catalog: Catalog, seed: int = 0) -> La
             on = members[name].support
             if name in facing:  # turn about its own place; its slot stays
                 yaw = _facing_yaw(xy, facing[name], bodies)
-        layout.poses.append(Pose(name, proposal.objects[name], (round(float(xy[0]), 4), round(float(xy[1]), 4)),
-                                 float(yaw), on))  # fmt: skip
+        layout.poses.append(
+            Pose(name, proposal.objects[name], (round(float(xy[0]), 4), round(float(xy[1]), 4)), float(yaw), on)
+        )
     return layout
 
 
@@ -383,8 +404,7 @@ def _initial_places(bodies: dict[str, Body], constraints: list[Constraint], rng:
         for _ in range(40):
             body.xy = np.array([rng.uniform(*SAFE_PLACEMENT["x"]), rng.uniform(*SAFE_PLACEMENT["y"])])
             _keep_in_reach(body)
-            overlap = sum(max(0.0, separation(body.polygon(), bodies[other].polygon())[0] + GAP)
-                          for other in placed)  # fmt: skip
+            overlap = sum(max(0.0, separation(body.polygon(), bodies[other].polygon())[0] + GAP) for other in placed)
             if overlap < best_overlap:
                 best, best_overlap = body.xy.copy(), overlap
         body.xy = best
@@ -413,8 +433,7 @@ def _overlaps(body: Body, bodies: dict[str, Body]) -> bool:
         low, high = REACH[key]
         if polygon[:, low_high].min() < low - TOLERANCE or polygon[:, low_high].max() > high + TOLERANCE:
             return True
-    return any(separation(polygon, other.polygon())[0] > -MIN_GAP
-               for other in bodies.values() if other is not body)  # fmt: skip
+    return any(separation(polygon, other.polygon())[0] > -MIN_GAP for other in bodies.values() if other is not body)
 
 
 def _iterate(bodies: dict[str, Body], constraints: list[Constraint], layout: Layout) -> bool:
@@ -445,8 +464,9 @@ def _iterate(bodies: dict[str, Body], constraints: list[Constraint], layout: Lay
         for body in bodies.values():
             if not body.fixed:
                 _keep_in_reach(body)
-        if all(constraint.error(bodies) <= TOLERANCE for constraint in constraints) and \
-                not any(_overlaps(body, bodies) for body in bodies.values()):  # fmt: skip
+        if all(constraint.error(bodies) <= TOLERANCE for constraint in constraints) and not any(
+            _overlaps(body, bodies) for body in bodies.values()
+        ):
             return True
     return False
 

@@ -41,8 +41,17 @@ from robolab_ms.tasks.spec import AXIS_OF_ATTRIBUTE, INSTRUCTION_VARIANTS, TaskS
 
 DEFAULT_ROUNDS = 3
 DEFAULT_SEEDS = 3
-TASK_KEYS = ("name", "scene", "episode_seconds", "attributes", "instructions", "success", "subtasks",
-             "contact_objects", "events")  # the order a task file lists them in  # fmt: skip
+TASK_KEYS = (
+    "name",
+    "scene",
+    "episode_seconds",
+    "attributes",
+    "instructions",
+    "success",
+    "subtasks",
+    "contact_objects",
+    "events",
+)  # the order a task file lists them in
 ATTRIBUTE_MEANINGS = {
     "color": "an object is picked out by its colour", "semantics": "by what it is (a category: fruit, tools)",
     "size": "by its size (the bigger pumpkin)", "conjunction": "several objects joined by and / or, or in sequence",
@@ -79,8 +88,10 @@ def resolve_scene(scene: str | Path) -> SceneSpec:
     if text.endswith((".yaml", ".yml")) or os.sep in text or "/" in text:
         path = Path(text).expanduser()
         if not path.is_file():
-            raise RoboLabError(f"scene file '{scene}' does not exist. Give a scene name (robolab list shows the "
-                               "scenes) or the path of a scene file")  # fmt: skip
+            raise RoboLabError(
+                f"scene file '{scene}' does not exist. Give a scene name (robolab list shows the "
+                "scenes) or the path of a scene file"
+            )
         return read_scene(path.resolve())
     return load_scene(text)
 
@@ -102,9 +113,11 @@ def check_output(out: Path) -> str:
         raise RoboLabError(f"--out {out}: a task file ends in .yaml")
     name = out.stem
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
-        raise RoboLabError(f"--out {out}: the file name is the task name and must be usable in an environment id "
-                           f"(RoboLab-{name}-v1): letters, digits and underscores, starting with a letter, e.g. "
-                           "MugLeftOfBowl.yaml")  # fmt: skip
+        raise RoboLabError(
+            f"--out {out}: the file name is the task name and must be usable in an environment id "
+            f"(RoboLab-{name}-v1): letters, digits and underscores, starting with a letter, e.g. "
+            "MugLeftOfBowl.yaml"
+        )
     known = content_files("tasks").get(name)
     if known is not None and Path(known).resolve() != out.resolve():
         raise RoboLabError(f"--out {out}: task '{name}' already exists ({known}); choose another file name")
@@ -141,7 +154,8 @@ def task_system_prompt(scene: SceneSpec, catalog: Catalog) -> str:
         "it: use it wherever the object is left somewhere, never with picked_up or grasped); require_picked_up: "
         "true (it must have been picked up at some step: use it when an object could be knocked into place).",
         "Attributes (RoboLab's vocabulary; list those that apply): "
-        + "; ".join(f"{key}: {value}" for key, value in ATTRIBUTE_MEANINGS.items() if key in AXIS_OF_ATTRIBUTE) + ".",
+        + "; ".join(f"{key}: {value}" for key, value in ATTRIBUTE_MEANINGS.items() if key in AXIS_OF_ATTRIBUTE)
+        + ".",
         "Instructions: default is the user's instruction as given; vague states the goal without naming the "
         "objects or the place directly, with one sensible reading in this scene; specific names every object by "
         "its colour or look and every step in order, letting go included when the condition needs it. Name only "
@@ -159,8 +173,10 @@ def task_system_prompt(scene: SceneSpec, catalog: Catalog) -> str:
 
 
 def task_user_prompt(instruction: str, scene: SceneSpec, catalog: Catalog) -> str:
-    return (f"{INSTRUCTION_PREFIX}{instruction}\n\nScene '{scene.name}': {scene.description}\nObjects (name: "
-            f"catalog object, class, colours, place):\n{scene_listing(scene, catalog)}")  # fmt: skip
+    return (
+        f"{INSTRUCTION_PREFIX}{instruction}\n\nScene '{scene.name}': {scene.description}\nObjects (name: "
+        f"catalog object, class, colours, place):\n{scene_listing(scene, catalog)}"
+    )
 
 
 # ------------------------------------------------------------------------------------------------ task files
@@ -214,9 +230,18 @@ def _spec_feedback(error: RoboLabError, file: Path) -> str:
 
 
 # ------------------------------------------------------------------------------------------------ generation
-def generate_task(scene: str | Path | SceneSpec, instruction: str, out: str | Path, model: JsonModel, judge: Judge,
-                  rounds: int = DEFAULT_ROUNDS, seeds: int = DEFAULT_SEEDS, first_seed: int = 0,
-                  catalog: Catalog | None = None, show_progress: bool = False) -> TaskGeneration:  # fmt: skip
+def generate_task(
+    scene: str | Path | SceneSpec,
+    instruction: str,
+    out: str | Path,
+    model: JsonModel,
+    judge: Judge,
+    rounds: int = DEFAULT_ROUNDS,
+    seeds: int = DEFAULT_SEEDS,
+    first_seed: int = 0,
+    catalog: Catalog | None = None,
+    show_progress: bool = False,
+) -> TaskGeneration:
     """Generate a task for `instruction` on `scene` (a name, a scene file or a SceneSpec) into `out` (its stem is
     the task's name). `seeds`: validation seeds per round (0 skips validation). The transcript is saved whatever
     happens."""
@@ -264,16 +289,30 @@ def generate_task(scene: str | Path | SceneSpec, instruction: str, out: str | Pa
                         feedback, result.stopped_at = [_spec_feedback(exc, candidate)], "schema"
                         checks["schema"] = feedback[0]
                 if spec is not None:
-                    feedback = _check_task(spec, instruction, judge, seeds, first_seed, Path(folder), round_number,
-                                           result, checks, show_progress, SOLVABLE_PREDICATES)  # fmt: skip
+                    feedback = _check_task(
+                        spec,
+                        instruction,
+                        judge,
+                        seeds,
+                        first_seed,
+                        Path(folder),
+                        round_number,
+                        result,
+                        checks,
+                        show_progress,
+                        SOLVABLE_PREDICATES,
+                    )
                 transcript.record(messages, raw, feedback, checks=checks)
                 if spec is not None and not feedback:
                     result.accepted, result.problems, result.stopped_at = True, [], "accepted"
                     result.task_file = _write_final(data, final_scene, out, model, judge, result, seeds)
                     break
                 result.problems = feedback
-                messages = [*messages, {"role": "assistant", "content": raw},
-                            {"role": "user", "content": feedback_message(feedback)}]  # fmt: skip
+                messages = [
+                    *messages,
+                    {"role": "assistant", "content": raw},
+                    {"role": "user", "content": feedback_message(feedback)},
+                ]
         result.seconds = time.perf_counter() - started
         transcript.outcome = "accepted" if result.accepted else "failed: " + "; ".join(result.problems)
     finally:
@@ -281,16 +320,28 @@ def generate_task(scene: str | Path | SceneSpec, instruction: str, out: str | Pa
     return result
 
 
-def _check_task(spec: TaskSpec, instruction: str, judge: Judge, seeds: int, first_seed: int, folder: Path,
-                round_number: int, result: TaskGeneration, checks: dict[str, Any], show_progress: bool,
-                solvable: tuple[str, ...]) -> list[str]:  # fmt: skip
+def _check_task(
+    spec: TaskSpec,
+    instruction: str,
+    judge: Judge,
+    seeds: int,
+    first_seed: int,
+    folder: Path,
+    round_number: int,
+    result: TaskGeneration,
+    checks: dict[str, Any],
+    show_progress: bool,
+    solvable: tuple[str, ...],
+) -> list[str]:
     """Checks 2 to 4 of one answer that the loader read; the feedback (empty when the task is accepted)."""
     predicate = spec.success[0].predicate
     if predicate not in solvable:
         result.stopped_at = "solvable"
         checks["solvable"] = f"no: {predicate}"
-        return [f"success[0] uses '{predicate}', which the oracle cannot solve, so validation cannot prove the task "
-                f"solvable; put a condition with one of {', '.join(solvable)} first"]  # fmt: skip
+        return [
+            f"success[0] uses '{predicate}', which the oracle cannot solve, so validation cannot prove the task "
+            f"solvable; put a condition with one of {', '.join(solvable)} first"
+        ]
     judgement = judge.judge(tidy(instruction), spec)
     if isinstance(judge, ModelJudge) and judge.transcript:
         checks["judge_conversation"] = judge.transcript[-1]
@@ -300,16 +351,19 @@ def _check_task(spec: TaskSpec, instruction: str, judge: Judge, seeds: int, firs
         result.first_judgement = judgement
     if judgement.verdict not in (ALIGNED, UNSURE):
         result.stopped_at = "judge"
-        return [f"the judge ({judgement.judge}) finds the condition does not match the instruction: {problem}"
-                for problem in judgement.problems]  # fmt: skip
+        return [
+            f"the judge ({judgement.judge}) finds the condition does not match the instruction: {problem}"
+            for problem in judgement.problems
+        ]
     if seeds == 0:
         checks["validate"] = "skipped (--seeds 0)"
         return []
     from robolab_ms.eval.validate import validate_task
 
     began = time.perf_counter()
-    row = validate_task(str(spec.file), seeds, folder / f"validate_{round_number}", first_seed,
-                        show_progress=show_progress)  # fmt: skip
+    row = validate_task(
+        str(spec.file), seeds, folder / f"validate_{round_number}", first_seed, show_progress=show_progress
+    )
     result.validate_seconds += time.perf_counter() - began
     result.validation = row
     checks["validate"] = asdict(row)
@@ -324,17 +378,23 @@ def _check_task(spec: TaskSpec, instruction: str, judge: Judge, seeds: int, firs
     return feedback
 
 
-def _write_final(data: dict[str, Any], scene: str, out: Path, model: JsonModel, judge: Judge,
-                 result: TaskGeneration, seeds: int) -> Path:  # fmt: skip
+def _write_final(
+    data: dict[str, Any], scene: str, out: Path, model: JsonModel, judge: Judge, result: TaskGeneration, seeds: int
+) -> Path:
     """Write the accepted task to `out` (its scene as the loader finds it from there) and read it back."""
     data = {**data, "scene": scene}
     row = result.validation
-    proof = (f"robolab validate with {seeds} seed(s) passed: oracle {row.oracle_success:.0%}, random policy "
-             f"{row.random_success:.0%}, largest drift at rest {row.max_drift_cm:g} cm" if row is not None
-             else "not validated (--seeds 0)")  # fmt: skip
+    proof = (
+        f"robolab validate with {seeds} seed(s) passed: oracle {row.oracle_success:.0%}, random policy "
+        f"{row.random_success:.0%}, largest drift at rest {row.max_drift_cm:g} cm"
+        if row is not None
+        else "not validated (--seeds 0)"
+    )
     verdict = result.judgement.verdict if result.judgement else "-"
-    header = (f"Generated by `robolab generate task` (backend {model.name}, judge {judge.name}: {verdict}) from the "
-              f"instruction in `default`.\n{proof}.")  # fmt: skip
+    header = (
+        f"Generated by `robolab generate task` (backend {model.name}, judge {judge.name}: {verdict}) from the "
+        f"instruction in `default`.\n{proof}."
+    )
     make_folder(out.parent, "--out")
     out.write_text(task_text(data, header), encoding="utf-8")
     read_task(out.resolve())

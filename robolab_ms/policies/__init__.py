@@ -194,15 +194,22 @@ def _replay(options: PolicyOptions) -> Policy:
 def _openpi(options: PolicyOptions) -> Policy:
     from robolab_ms.policies.openpi import OpenPIPolicy
 
-    return OpenPIPolicy(options.host, options.port or 8000, options.open_loop_horizon, options.timeout,
-                        options.realtime)  # fmt: skip
+    return OpenPIPolicy(
+        options.host, options.port or 8000, options.open_loop_horizon, options.timeout, options.realtime
+    )
 
 
 def _gr00t(options: PolicyOptions) -> Policy:
     from robolab_ms.policies.gr00t import Gr00tPolicy
 
-    return Gr00tPolicy(options.host, options.port or 5555, options.open_loop_horizon, options.timeout,
-                       options.gr00t_version, options.realtime)  # fmt: skip
+    return Gr00tPolicy(
+        options.host,
+        options.port or 5555,
+        options.open_loop_horizon,
+        options.timeout,
+        options.gr00t_version,
+        options.realtime,
+    )
 
 
 POLICIES: dict[str, Callable[[PolicyOptions], Policy]] = {

@@ -73,11 +73,14 @@ def eef_9d(pose: np.ndarray) -> np.ndarray:
     """(E, 7) position + quaternion (w, x, y, z) in the robot frame -> (E, 9) position + DROID 6-D rotation."""
     pose = np.asarray(pose, dtype=np.float64).reshape(-1, 7)
     w, x, y, z = (pose[:, i] / np.linalg.norm(pose[:, 3:], axis=1) for i in range(3, 7))
-    rotation = np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
-    ], axis=-2)  # fmt: skip
+    rotation = np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=-2,
+    )
     six = (rotation @ DROID_EEF_CORRECTION)[:, :2, :].reshape(-1, 6)
     return np.concatenate([pose[:, :3], six], axis=1).astype(np.float32)
 
@@ -172,8 +175,15 @@ class Gr00tPolicy(ChunkedPolicy):
     name = "gr00t"
     needs_images = True
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 5555, open_loop_horizon: int = 8,
-                 timeout: float = 60.0, version: str = "n1.6", realtime: bool = False) -> None:  # fmt: skip
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 5555,
+        open_loop_horizon: int = 8,
+        timeout: float = 60.0,
+        version: str = "n1.6",
+        realtime: bool = False,
+    ) -> None:
         super().__init__(open_loop_horizon, realtime)
         if version not in VERSIONS:
             raise PolicyUnavailableError(f"--gr00t-version must be one of {', '.join(VERSIONS)}, got {version!r}")
@@ -189,10 +199,14 @@ class Gr00tPolicy(ChunkedPolicy):
 
         self.close()
         self.needs_reconnect = True  # until the server answers
-        probe_server(self.host, self.port, "GR00T",
-                     f"`robolab serve --protocol gr00t --policy random --port {self.port}` to check the set-up here, "
-                     f"or GR00T's `python scripts/inference_service.py --server --port {self.port}` (DROID "
-                     "embodiment) on a GPU machine")  # fmt: skip
+        probe_server(
+            self.host,
+            self.port,
+            "GR00T",
+            f"`robolab serve --protocol gr00t --policy random --port {self.port}` to check the set-up here, "
+            f"or GR00T's `python scripts/inference_service.py --server --port {self.port}` (DROID "
+            "embodiment) on a GPU machine",
+        )
         self._context = zmq.Context()
         self._socket = self._context.socket(zmq.REQ)
         self._socket.setsockopt(zmq.LINGER, 0)
@@ -202,8 +216,10 @@ class Gr00tPolicy(ChunkedPolicy):
             reply = self._call({"endpoint": "ping"}, min(self.timeout, PING_TIMEOUT))
         except (PolicyTimeout, PolicyConnectionLost) as exc:
             self.close()
-            raise PolicyUnavailableError(f"the server at {self.host}:{self.port} does not answer GR00T's ping "
-                                         f"({exc}): is it a GR00T policy server?") from None  # fmt: skip
+            raise PolicyUnavailableError(
+                f"the server at {self.host}:{self.port} does not answer GR00T's ping "
+                f"({exc}): is it a GR00T policy server?"
+            ) from None
         self._metadata = dict(reply) if isinstance(reply, dict) else {"ping": reply}
         self._metadata.setdefault("protocol", "gr00t")
         self._metadata.setdefault("request_format", self.version)
@@ -228,8 +244,9 @@ class Gr00tPolicy(ChunkedPolicy):
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 self.needs_reconnect = True  # a REQ socket without its reply cannot send again
-                raise PolicyTimeout(f"the GR00T server at {self.endpoint} did not answer within {timeout:g} s "
-                                    "(--timeout)")  # fmt: skip
+                raise PolicyTimeout(
+                    f"the GR00T server at {self.endpoint} did not answer within {timeout:g} s (--timeout)"
+                )
             events = dict(poller.poll(remaining * 1000.0))
             if self._socket in events:
                 return unpack(self._socket.recv())

@@ -24,8 +24,10 @@ from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
 from robolab_ms.policies.remote import check_chunk
 
-CAMERA_KEYS = {"exterior_image_1_left": "observation.images.exterior_1_left",
-               "wrist_image_left": "observation.images.wrist_left"}  # fmt: skip
+CAMERA_KEYS = {
+    "exterior_image_1_left": "observation.images.exterior_1_left",
+    "wrist_image_left": "observation.images.wrist_left",
+}
 
 
 def droid_to_lerobot_batch(observation: dict[str, Any]) -> dict[str, Any]:
@@ -79,14 +81,18 @@ def load_lerobot_policy(spec: str) -> LeRobotPolicy:
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
-        raise RoboLabError(f"--policy {spec!r}: cannot import module '{module_name}' ({exc}); install it or add "
-                           "its folder to PYTHONPATH") from None  # fmt: skip
+        raise RoboLabError(
+            f"--policy {spec!r}: cannot import module '{module_name}' ({exc}); install it or add "
+            "its folder to PYTHONPATH"
+        ) from None
     factory = getattr(module, attribute, None)
     if not callable(factory):
         raise RoboLabError(f"--policy {spec!r}: module '{module_name}' has no callable '{attribute}'")
     model = factory()
     missing = [name for name in ("reset", "select_action") if not callable(getattr(model, name, None))]
     if missing:
-        raise RoboLabError(f"--policy {spec!r}: {attribute}() returned a {type(model).__name__} without "
-                           f"{' and '.join(missing)}(); a LeRobot-style policy has reset() and select_action(batch)")  # fmt: skip
+        raise RoboLabError(
+            f"--policy {spec!r}: {attribute}() returned a {type(model).__name__} without "
+            f"{' and '.join(missing)}(); a LeRobot-style policy has reset() and select_action(batch)"
+        )
     return LeRobotPolicy(spec, model)

@@ -120,12 +120,20 @@ class ServedPolicy:
         import lerobot
         import torch
 
-        return {"server": "robolab_ms", "protocol": "openpi", "policy": f"lerobot-{self.config.type}",
-                "policy_type": self.config.type, "policy_source": self.source, "action_horizon": self.actions_per_reply,
-                "action_dim": DROID_ACTION_DIM, "policy_action_dim": self.action_dim,
-                "inputs": {name: "+".join(keys) for name, keys in self.sources.items()},
-                "lerobot_version": getattr(lerobot, "__version__", "unknown"), "torch_version": torch.__version__,
-                "device": self.device}  # fmt: skip
+        return {
+            "server": "robolab_ms",
+            "protocol": "openpi",
+            "policy": f"lerobot-{self.config.type}",
+            "policy_type": self.config.type,
+            "policy_source": self.source,
+            "action_horizon": self.actions_per_reply,
+            "action_dim": DROID_ACTION_DIM,
+            "policy_action_dim": self.action_dim,
+            "inputs": {name: "+".join(keys) for name, keys in self.sources.items()},
+            "lerobot_version": getattr(lerobot, "__version__", "unknown"),
+            "torch_version": torch.__version__,
+            "device": self.device,
+        }
 
     def reset(self, seed: int | None) -> None:
         """A new episode: the policy's queues and the processors' state cleared, torch seeded."""
@@ -148,16 +156,20 @@ class ServedPolicy:
             if keys[0] in IMAGE_SOURCES:
                 image = _request_array(request, keys[0])
                 if image.ndim != 3 or image.shape[-1] != 3 or image.dtype != np.uint8:
-                    raise RequestError(f"'observation/{keys[0]}' is {image.dtype} {image.shape}; expected uint8 "
-                                       "(H, W, 3)")  # fmt: skip
+                    raise RequestError(
+                        f"'observation/{keys[0]}' is {image.dtype} {image.shape}; expected uint8 (H, W, 3)"
+                    )
                 batch[name] = image_to_feature(image, tuple(feature.shape)).to(self.device)
             else:
                 vector = np.concatenate([_request_array(request, key).astype(np.float32).reshape(-1) for key in keys])
                 size = int(np.prod(feature.shape))
                 if vector.size != size:
-                    self._warn_once(name, f"'{name}' takes {size} values and {'+'.join(keys)} has {vector.size}: "
-                                          f"{'padded with zeros' if vector.size < size else 'cut'} to fit (map it "
-                                          "with --map)")  # fmt: skip
+                    self._warn_once(
+                        name,
+                        f"'{name}' takes {size} values and {'+'.join(keys)} has {vector.size}: "
+                        f"{'padded with zeros' if vector.size < size else 'cut'} to fit (map it "
+                        "with --map)",
+                    )
                     vector = np.pad(vector, (0, max(0, size - vector.size)))[:size]
                 batch[name] = torch.from_numpy(vector.reshape(1, *feature.shape)).to(self.device)
         batch["task"] = [str(request.get("prompt", ""))]
@@ -180,10 +192,13 @@ class ServedPolicy:
         if self.action_indices is not None:
             return np.ascontiguousarray(actions[:, self.action_indices], dtype=np.float32)
         if actions.shape[1] != DROID_ACTION_DIM:
-            self._warn_once("action", f"the policy's action has {actions.shape[1]} values and DROID's has "
-                                      f"{DROID_ACTION_DIM} (7 joint targets, gripper): "
-                                      f"{'padded with zeros' if actions.shape[1] < DROID_ACTION_DIM else 'cut'} to "
-                                      f"{DROID_ACTION_DIM}; choose them with --action-indices")  # fmt: skip
+            self._warn_once(
+                "action",
+                f"the policy's action has {actions.shape[1]} values and DROID's has "
+                f"{DROID_ACTION_DIM} (7 joint targets, gripper): "
+                f"{'padded with zeros' if actions.shape[1] < DROID_ACTION_DIM else 'cut'} to "
+                f"{DROID_ACTION_DIM}; choose them with --action-indices",
+            )
             actions = np.pad(actions, ((0, 0), (0, max(0, DROID_ACTION_DIM - actions.shape[1]))))
         return np.ascontiguousarray(actions[:, :DROID_ACTION_DIM], dtype=np.float32)
 
@@ -193,9 +208,12 @@ class ServedPolicy:
             if keys[0] not in IMAGE_SOURCES:
                 size, given = int(np.prod(self.config.input_features[name].shape)), sum(VECTOR_SOURCES[k] for k in keys)
                 if size != given:
-                    self._warn_once(name, f"'{name}' takes {size} values and {'+'.join(keys)} has {given}: "
-                                          f"{'padded with zeros' if given < size else 'cut'} to fit (map it with "
-                                          "--map)")  # fmt: skip
+                    self._warn_once(
+                        name,
+                        f"'{name}' takes {size} values and {'+'.join(keys)} has {given}: "
+                        f"{'padded with zeros' if given < size else 'cut'} to fit (map it with "
+                        "--map)",
+                    )
         if self.action_indices is None and self.action_dim != DROID_ACTION_DIM:
             self.to_droid(np.zeros((1, self.action_dim), np.float32))
 
@@ -248,16 +266,20 @@ def default_sources(input_features: dict[str, Any], mapping: dict[str, list[str]
     sources: dict[str, list[str]] = {}
     unknown = sorted(set(mapping) - set(input_features))
     if unknown:
-        raise RoboLabError(f"--map {unknown[0]}=...: the policy has no input feature '{unknown[0]}'; its inputs are "
-                           f"{sorted(input_features)}")  # fmt: skip
+        raise RoboLabError(
+            f"--map {unknown[0]}=...: the policy has no input feature '{unknown[0]}'; its inputs are "
+            f"{sorted(input_features)}"
+        )
     cameras = [name for name, feature in input_features.items() if feature.type is FeatureType.VISUAL]
     unmapped_cameras = [name for name in cameras if name not in mapping]
     wrist = [name for name in unmapped_cameras if "wrist" in name]
     exterior = [name for name in unmapped_cameras if "wrist" not in name]
     if len(wrist) > 1 or len(exterior) > 1:
-        raise RoboLabError(f"the policy takes cameras {cameras}, and an openpi DROID request carries two "
-                           f"images ({', '.join(IMAGE_SOURCES)}): say which feeds which with --map "
-                           "FEATURE=SOURCE")  # fmt: skip
+        raise RoboLabError(
+            f"the policy takes cameras {cameras}, and an openpi DROID request carries two "
+            f"images ({', '.join(IMAGE_SOURCES)}): say which feeds which with --map "
+            "FEATURE=SOURCE"
+        )
     for name, feature in input_features.items():
         if name in mapping:
             keys = mapping[name]
@@ -265,8 +287,11 @@ def default_sources(input_features: dict[str, Any], mapping: dict[str, list[str]
             allowed = IMAGE_SOURCES if is_image else tuple(VECTOR_SOURCES)
             bad = [key for key in keys if key not in allowed]
             if bad or (is_image and len(keys) != 1):
-                takes = (f"an image feature takes one of {' or '.join(allowed)}" if is_image
-                         else f"a vector feature takes {' + '.join(allowed)} (any of them)")  # fmt: skip
+                takes = (
+                    f"an image feature takes one of {' or '.join(allowed)}"
+                    if is_image
+                    else f"a vector feature takes {' + '.join(allowed)} (any of them)"
+                )
                 raise RoboLabError(f"--map {name}={'+'.join(keys)}: {takes}")
             sources[name] = keys
         elif feature.type is FeatureType.VISUAL:
@@ -274,9 +299,11 @@ def default_sources(input_features: dict[str, Any], mapping: dict[str, list[str]
         elif feature.type is FeatureType.STATE:
             sources[name] = list(VECTOR_SOURCES)
         elif feature.type in (FeatureType.ENV,):
-            raise RoboLabError(f"the policy's input '{name}' ({feature.type.name}, shape {tuple(feature.shape)}) has "
-                               "no counterpart in DROID's request: feed it with --map "
-                               f"{name}=joint_position+gripper_position (or a part of that)")  # fmt: skip
+            raise RoboLabError(
+                f"the policy's input '{name}' ({feature.type.name}, shape {tuple(feature.shape)}) has "
+                "no counterpart in DROID's request: feed it with --map "
+                f"{name}=joint_position+gripper_position (or a part of that)"
+            )
     return sources
 
 
@@ -285,8 +312,10 @@ def parse_map(items: list[str]) -> dict[str, list[str]]:
     for item in items:
         name, sep, value = item.partition("=")
         if not sep or not name or not value:
-            raise RoboLabError(f"--map {item!r}: write FEATURE=SOURCE or FEATURE=SOURCE+SOURCE, e.g. "
-                               "observation.images.top=exterior_image_1_left")  # fmt: skip
+            raise RoboLabError(
+                f"--map {item!r}: write FEATURE=SOURCE or FEATURE=SOURCE+SOURCE, e.g. "
+                "observation.images.top=exterior_image_1_left"
+            )
         mapping[name.strip()] = [part.strip() for part in value.split("+")]
     return mapping
 
@@ -312,8 +341,10 @@ def _apply_settings(config: Any, settings: dict[str, Any]) -> None:
     for key, value in settings.items():
         if key not in names:
             close = sorted(name for name in names if key.split("_")[0] in name)[:6]
-            raise RoboLabError(f"--set {key}=...: {type(config).__name__} has no field '{key}'"
-                               + (f" (similar: {', '.join(close)})" if close else ""))  # fmt: skip
+            raise RoboLabError(
+                f"--set {key}=...: {type(config).__name__} has no field '{key}'"
+                + (f" (similar: {', '.join(close)})" if close else "")
+            )
         current = getattr(config, key)
         setattr(config, key, tuple(value) if isinstance(current, tuple) and isinstance(value, list) else value)
 
@@ -334,9 +365,11 @@ def _stats(path: str | None) -> dict[str, dict[str, Any]] | None:
     except (OSError, json.JSONDecodeError) as exc:
         raise RoboLabError(f"--stats {path}: cannot read it as JSON ({exc})") from None
     if not isinstance(stats, dict) or not all(isinstance(value, dict) for value in stats.values()):
-        raise RoboLabError(f"--stats {path}: expected {{feature: {{\"mean\": [...], \"std\": [...], ...}}}}")
-    return {name: {stat: np.asarray(values, dtype=np.float32) for stat, values in entry.items()}
-            for name, entry in stats.items()}  # fmt: skip
+        raise RoboLabError(f'--stats {path}: expected {{feature: {{"mean": [...], "std": [...], ...}}}}')
+    return {
+        name: {stat: np.asarray(values, dtype=np.float32) for stat, values in entry.items()}
+        for name, entry in stats.items()
+    }
 
 
 def load_policy(args: argparse.Namespace) -> ServedPolicy:
@@ -345,8 +378,10 @@ def load_policy(args: argparse.Namespace) -> ServedPolicy:
     mapping = parse_map(args.map)
     if args.checkpoint:
         if not (Path(args.checkpoint) / "config.json").is_file():
-            raise RoboLabError(f"--checkpoint {args.checkpoint}: no config.json there; give the folder LeRobot saved "
-                               "the policy in (e.g. outputs/train/.../checkpoints/last/pretrained_model)")  # fmt: skip
+            raise RoboLabError(
+                f"--checkpoint {args.checkpoint}: no config.json there; give the folder LeRobot saved "
+                "the policy in (e.g. outputs/train/.../checkpoints/last/pretrained_model)"
+            )
         if args.stats:
             raise RoboLabError("--stats is for --policy-type; a checkpoint keeps its statistics in its processors")
     device = _device(args.device)
@@ -384,12 +419,14 @@ def _from_checkpoint(folder: Path, settings: dict[str, Any], device: str) -> tup
     overrides = {"device_processor": {"device": device}}
     try:
         preprocessor, postprocessor = make_pre_post_processors(
-            config, pretrained_path=str(folder), preprocessor_overrides=overrides,
-            postprocessor_overrides=overrides)  # fmt: skip
+            config, pretrained_path=str(folder), preprocessor_overrides=overrides, postprocessor_overrides=overrides
+        )
     except FileNotFoundError as exc:
-        raise RoboLabError(f"--checkpoint {folder}: no saved pre-/post-processor ({exc}); a checkpoint of an "
-                           "older LeRobot needs converting with lerobot's "
-                           "processor/migrate_policy_normalization.py") from None  # fmt: skip
+        raise RoboLabError(
+            f"--checkpoint {folder}: no saved pre-/post-processor ({exc}); a checkpoint of an "
+            "older LeRobot needs converting with lerobot's "
+            "processor/migrate_policy_normalization.py"
+        ) from None
     return policy, preprocessor, postprocessor
 
 
@@ -419,8 +456,8 @@ def _from_config(args: argparse.Namespace, settings: dict[str, Any], device: str
     policy = get_policy_class(config.type)(config=config)
     overrides = {"device_processor": {"device": device}}
     preprocessor, postprocessor = make_pre_post_processors(
-        config, dataset_stats=_stats(args.stats), preprocessor_overrides=overrides,
-        postprocessor_overrides=overrides)  # fmt: skip
+        config, dataset_stats=_stats(args.stats), preprocessor_overrides=overrides, postprocessor_overrides=overrides
+    )
     return policy, preprocessor, postprocessor
 
 
@@ -432,8 +469,10 @@ def _action_indices(text: str | None, action_dim: int) -> list[int] | None:
     except ValueError:
         indices = []
     if len(indices) != DROID_ACTION_DIM or not all(0 <= index < action_dim for index in indices):
-        raise RoboLabError(f"--action-indices {text}: give {DROID_ACTION_DIM} comma-separated indices into the "
-                           f"policy's action (0 to {action_dim - 1}): 7 joint targets, then the gripper")  # fmt: skip
+        raise RoboLabError(
+            f"--action-indices {text}: give {DROID_ACTION_DIM} comma-separated indices into the "
+            f"policy's action (0 to {action_dim - 1}): 7 joint targets, then the gripper"
+        )
     return indices
 
 
@@ -444,9 +483,13 @@ def _summary(batch: dict[str, Any]) -> dict[str, Any]:
     for key, value in batch.items():
         if hasattr(value, "detach"):
             array = value.detach().to("cpu").float().numpy()
-            summary[key] = {"shape": list(value.shape), "dtype": str(value.dtype).removeprefix("torch."),
-                            "min": float(array.min()), "max": float(array.max()),
-                            "mean": float(array.mean())}  # fmt: skip
+            summary[key] = {
+                "shape": list(value.shape),
+                "dtype": str(value.dtype).removeprefix("torch."),
+                "min": float(array.min()),
+                "max": float(array.max()),
+                "mean": float(array.mean()),
+            }
         else:
             summary[key] = value
     return summary
@@ -465,8 +508,11 @@ class Server:
     def answer(self, connection_id: int, request: dict[str, Any]) -> np.ndarray:
         if not isinstance(request, dict):
             raise RequestError(f"a request is a msgpack map of DROID's keys, got {type(request).__name__}")
-        robolab = {key.removeprefix("robolab/"): value for key, value in request.items()
-                   if isinstance(key, str) and key.startswith("robolab/")}  # fmt: skip
+        robolab = {
+            key.removeprefix("robolab/"): value
+            for key, value in request.items()
+            if isinstance(key, str) and key.startswith("robolab/")
+        }
         key = (connection_id, *(robolab.get(name) for name in ("task", "instruction_variant", "robot", "seed")))
         with self.lock:  # one policy: requests of several clients are answered in turn
             if key != self.episode or robolab.get("step") == 0:
@@ -480,8 +526,11 @@ class Server:
                 self.log_inputs = None  # the first batch only
             raw, actions = self.served.chunk(batch)
             if self.log_actions:
-                line = {**{name: _plain(robolab.get(name)) for name in ("task", "seed", "step")},
-                        "policy_actions": raw.tolist(), "actions": actions.tolist()}
+                line = {
+                    **{name: _plain(robolab.get(name)) for name in ("task", "seed", "step")},
+                    "policy_actions": raw.tolist(),
+                    "actions": actions.tolist(),
+                }
                 with open(self.log_actions, "a") as handle:
                     handle.write(json.dumps(line) + "\n")
         return actions
@@ -523,14 +572,18 @@ class Server:
         def health(connection: Any, request: Any) -> Any:
             return connection.respond(http.HTTPStatus.OK, "OK\n") if request.path == "/healthz" else None
 
-        async with ws_server.serve(self.handle, host, port, compression=None, max_size=None,
-                                   process_request=health) as server:  # fmt: skip
+        async with ws_server.serve(
+            self.handle, host, port, compression=None, max_size=None, process_request=health
+        ) as server:
             bound = next(iter(server.sockets)).getsockname()[1]
             config = self.served.config
-            print(f"{READY} {config.type} ({self.served.source}, {self.served.device}) on ws://{host}:{bound}, "
-                  f"{self.served.actions_per_reply} actions per reply; evaluate with `robolab eval --policy openpi "
-                  f"--host {host if host not in ('0.0.0.0', '') else '127.0.0.1'} --port {bound} --task ...`; "
-                  "Ctrl-C stops", flush=True)  # fmt: skip
+            print(
+                f"{READY} {config.type} ({self.served.source}, {self.served.device}) on ws://{host}:{bound}, "
+                f"{self.served.actions_per_reply} actions per reply; evaluate with `robolab eval --policy openpi "
+                f"--host {host if host not in ('0.0.0.0', '') else '127.0.0.1'} --port {bound} --task ...`; "
+                "Ctrl-C stops",
+                flush=True,
+            )
             await server.serve_forever()
 
 
@@ -553,35 +606,69 @@ def parser() -> argparse.ArgumentParser:
         "Runs in the LeRobot environment (make lerobot-env); see docs/policies.md.",
     )
     which = parse.add_mutually_exclusive_group(required=True)
-    which.add_argument("--checkpoint", metavar="DIR", help="a LeRobot checkpoint folder on this machine (config.json, "
-                       "model.safetensors, policy_preprocessor.json ...)")  # fmt: skip
-    which.add_argument("--policy-type", metavar="TYPE", help="build this policy type (act, diffusion, ...) from its "
-                       "config class with random weights and DROID's features (no pretrained vision backbone "
-                       "unless --set pretrained_backbone_weights=... asks for one)")  # fmt: skip
-    parse.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                       help="set a field of the policy's config (VALUE as JSON where it parses), e.g. "
-                       "n_action_steps=16 or num_inference_steps=10; repeatable")  # fmt: skip
-    parse.add_argument("--image-size", type=_image_size, default=DEFAULT_IMAGE_SIZE, metavar="H,W",
-                       help="--policy-type: the size of its image features (default: 224,224)")  # fmt: skip
-    parse.add_argument("--stats", metavar="FILE", help="--policy-type: normalization statistics, JSON "
-                       "{feature: {mean, std, min, max: [...]}} (default: none, values pass unnormalized)")  # fmt: skip
-    parse.add_argument("--map", action="append", default=[], metavar="FEATURE=SOURCE[+SOURCE]",
-                       help=f"feed a policy input from the request: images from one of {', '.join(IMAGE_SOURCES)}; "
-                       f"vectors from {' + '.join(VECTOR_SOURCES)} (concatenated); repeatable. Default: a camera "
-                       "named *wrist* from the wrist image, another from the exterior one, the state from the "
-                       "joints and the gripper")  # fmt: skip
-    parse.add_argument("--action-indices", metavar="I,I,I,I,I,I,I,I",
-                       help="which 8 values of the policy's action are DROID's 7 joint targets and gripper "
-                       "(default: the first 8, zero-padded when fewer)")  # fmt: skip
+    which.add_argument(
+        "--checkpoint",
+        metavar="DIR",
+        help="a LeRobot checkpoint folder on this machine (config.json, "
+        "model.safetensors, policy_preprocessor.json ...)",
+    )
+    which.add_argument(
+        "--policy-type",
+        metavar="TYPE",
+        help="build this policy type (act, diffusion, ...) from its "
+        "config class with random weights and DROID's features (no pretrained vision backbone "
+        "unless --set pretrained_backbone_weights=... asks for one)",
+    )
+    parse.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="set a field of the policy's config (VALUE as JSON where it parses), e.g. "
+        "n_action_steps=16 or num_inference_steps=10; repeatable",
+    )
+    parse.add_argument(
+        "--image-size",
+        type=_image_size,
+        default=DEFAULT_IMAGE_SIZE,
+        metavar="H,W",
+        help="--policy-type: the size of its image features (default: 224,224)",
+    )
+    parse.add_argument(
+        "--stats",
+        metavar="FILE",
+        help="--policy-type: normalization statistics, JSON "
+        "{feature: {mean, std, min, max: [...]}} (default: none, values pass unnormalized)",
+    )
+    parse.add_argument(
+        "--map",
+        action="append",
+        default=[],
+        metavar="FEATURE=SOURCE[+SOURCE]",
+        help=f"feed a policy input from the request: images from one of {', '.join(IMAGE_SOURCES)}; "
+        f"vectors from {' + '.join(VECTOR_SOURCES)} (concatenated); repeatable. Default: a camera "
+        "named *wrist* from the wrist image, another from the exterior one, the state from the "
+        "joints and the gripper",
+    )
+    parse.add_argument(
+        "--action-indices",
+        metavar="I,I,I,I,I,I,I,I",
+        help="which 8 values of the policy's action are DROID's 7 joint targets and gripper "
+        "(default: the first 8, zero-padded when fewer)",
+    )
     parse.add_argument("--device", default="auto", help="torch device (default: cuda when there is one, else cpu)")
     parse.add_argument("--host", default="0.0.0.0", help="address to listen on (default: 0.0.0.0)")
     parse.add_argument("--port", type=int, default=8000, help="port (default: 8000; 0 picks a free one)")
-    parse.add_argument("--log-inputs", metavar="FILE",
-                       help="write the first batch fed into the pre-processor (keys, shapes, dtypes, value ranges) "
-                       "as JSON")  # fmt: skip
-    parse.add_argument("--log-actions", metavar="FILE",
-                       help="append one JSON line per reply: task, seed, step, the post-processed actions and the "
-                       "DROID actions sent")  # fmt: skip
+    parse.add_argument(
+        "--log-inputs",
+        metavar="FILE",
+        help="write the first batch fed into the pre-processor (keys, shapes, dtypes, value ranges) as JSON",
+    )
+    parse.add_argument(
+        "--log-actions",
+        metavar="FILE",
+        help="append one JSON line per reply: task, seed, step, the post-processed actions and the DROID actions sent",
+    )
     return parse
 
 
@@ -597,8 +684,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         asyncio.run(Server(served, args.log_inputs, args.log_actions).serve(args.host, args.port))
     except OSError as exc:
-        print(f"error: cannot listen on {args.host}:{args.port}: {exc.strerror or exc}; is another server running "
-              "there? Choose another --port", file=sys.stderr)  # fmt: skip
+        print(
+            f"error: cannot listen on {args.host}:{args.port}: {exc.strerror or exc}; is another server running "
+            "there? Choose another --port",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         return 0

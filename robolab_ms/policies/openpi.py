@@ -55,8 +55,9 @@ def _client_class() -> type:
         timeout: float = 60.0
 
         def _wait_for_server(self) -> tuple[Any, dict]:
-            connection = websockets.sync.client.connect(self._uri, compression=None, max_size=None,
-                                                        open_timeout=self.timeout, legacy=True)  # fmt: skip
+            connection = websockets.sync.client.connect(
+                self._uri, compression=None, max_size=None, open_timeout=self.timeout, legacy=True
+            )
             return connection, msgpack_numpy.unpackb(connection.recv(timeout=self.timeout))
 
         def infer(self, obs: dict) -> dict:
@@ -78,8 +79,14 @@ class OpenPIPolicy(ChunkedPolicy):
     name = "openpi"
     needs_images = True
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 8000, open_loop_horizon: int = 8,
-                 timeout: float = 60.0, realtime: bool = False) -> None:  # fmt: skip
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 8000,
+        open_loop_horizon: int = 8,
+        timeout: float = 60.0,
+        realtime: bool = False,
+    ) -> None:
         super().__init__(open_loop_horizon, realtime)
         self.host, self.port, self.timeout = host, port, timeout
         self.endpoint = f"ws://{host}:{port}"
@@ -89,20 +96,27 @@ class OpenPIPolicy(ChunkedPolicy):
     def connect(self) -> None:
         self.close()
         self.needs_reconnect = True  # until a connection is made
-        probe_server(self.host, self.port, "openpi",
-                     f"`robolab serve --policy random --port {self.port}` to check the set-up here, or openpi's "
-                     f"`uv run scripts/serve_policy.py --env DROID` on a GPU machine")  # fmt: skip
+        probe_server(
+            self.host,
+            self.port,
+            "openpi",
+            f"`robolab serve --policy random --port {self.port}` to check the set-up here, or openpi's "
+            f"`uv run scripts/serve_policy.py --env DROID` on a GPU machine",
+        )
         client_class = _client_class()
         client_class.timeout = self.timeout
         try:
             self._client = client_class(host=self.host, port=self.port)
         except TimeoutError:
-            raise PolicyUnavailableError(f"the server at {self.host}:{self.port} accepted a connection but sent no "
-                                         f"openpi metadata within {self.timeout:g} s: is it an openpi policy "
-                                         "server?") from None  # fmt: skip
+            raise PolicyUnavailableError(
+                f"the server at {self.host}:{self.port} accepted a connection but sent no "
+                f"openpi metadata within {self.timeout:g} s: is it an openpi policy "
+                "server?"
+            ) from None
         except Exception as exc:  # websockets' handshake errors, refused connections
-            raise PolicyUnavailableError(f"cannot open an openpi websocket to {self.endpoint}: "
-                                         f"{type(exc).__name__}: {exc}") from None  # fmt: skip
+            raise PolicyUnavailableError(
+                f"cannot open an openpi websocket to {self.endpoint}: {type(exc).__name__}: {exc}"
+            ) from None
         metadata = self._client.get_server_metadata()
         self._metadata = metadata if isinstance(metadata, dict) else {"metadata": metadata}
         self.needs_reconnect = False
@@ -138,12 +152,14 @@ class OpenPIPolicy(ChunkedPolicy):
             raise
         except TimeoutError:
             self.needs_reconnect = True  # a late reply would answer the next query: start afresh
-            raise PolicyTimeout(f"the openpi server at {self.endpoint} did not answer within {self.timeout:g} s "
-                                "(--timeout)") from None  # fmt: skip
+            raise PolicyTimeout(
+                f"the openpi server at {self.endpoint} did not answer within {self.timeout:g} s (--timeout)"
+            ) from None
         except Exception as exc:  # the connection closed or broke
             self.needs_reconnect = True
-            raise PolicyConnectionLost(f"lost the connection to the openpi server at {self.endpoint} "
-                                       f"({type(exc).__name__}: {exc})") from None  # fmt: skip
+            raise PolicyConnectionLost(
+                f"lost the connection to the openpi server at {self.endpoint} ({type(exc).__name__}: {exc})"
+            ) from None
         if not isinstance(reply, dict) or "actions" not in reply:
             keys = sorted(reply) if isinstance(reply, dict) else type(reply).__name__
             raise PolicyReplyError(f"reply from {self.endpoint} has no 'actions' (it holds {keys})")

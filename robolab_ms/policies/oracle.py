@@ -25,19 +25,19 @@ from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle_balance import balance_grasp, head_first_place
-from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_carry import held_spread, high_carry
 from robolab_ms.policies.oracle_centred import centred_grasp, off_part
 from robolab_ms.policies.oracle_chord import chord_grasp
+from robolab_ms.policies.oracle_clear import arm_hits_fixture, fixture_closeness, move_for_chain, reach_over_clear
 from robolab_ms.policies.oracle_handle import handle_grasp
 from robolab_ms.policies.oracle_lying import lying_container, stand_before_moving
-from robolab_ms.policies.oracle_release import backed_off, settle_pose, turned_place
-from robolab_ms.policies.oracle_side import side_hold_job
 from robolab_ms.policies.oracle_overhang import STEP_LIFT, STEP_SETTLE_STEPS, side_step, side_step_path
 from robolab_ms.policies.oracle_pads import pads_snag
-from robolab_ms.policies.oracle_share import shared_spot
-from robolab_ms.policies.oracle_sag import sagging_reach_height
+from robolab_ms.policies.oracle_release import backed_off, settle_pose, turned_place
 from robolab_ms.policies.oracle_reorient import end_grasp, turned_rim_grasps
+from robolab_ms.policies.oracle_sag import sagging_reach_height
+from robolab_ms.policies.oracle_share import shared_spot
+from robolab_ms.policies.oracle_side import side_hold_job
 from robolab_ms.policies.oracle_tools import draw_nearer, far_tool, higher_hold, reachable_above
 from robolab_ms.tasks.predicates import PREDICATES, per_object
 
@@ -197,12 +197,15 @@ def jobs_for(env: RoboLabEnv) -> list[Job]:
         footprints: list[np.ndarray] = []
         for name in objects:  # an object taken off a shelf level goes down near where it is, not behind the shelf
             near = shelf_exit_spot(env, name) if not env.scene.gpu_sim_enabled and covered(env, name) else None
-            if near is not None and not (TABLE_SAFE_X[0] <= near[0] <= TABLE_SAFE_X[1]
-                                         and TABLE_SAFE_Y[0] <= near[1] <= TABLE_SAFE_Y[1]):  # fmt: skip
+            if near is not None and not (
+                TABLE_SAFE_X[0] <= near[0] <= TABLE_SAFE_X[1] and TABLE_SAFE_Y[0] <= near[1] <= TABLE_SAFE_Y[1]
+            ):
                 near = _centre(env, name)[:2]  # no room beside the shelf (a long object): near where it lies
             moved = objects[: len(footprints) + 1]  # those not yet moved still stand where they are
             footprints.append(free_spot(env, name, avoid=moved, taken=footprints, near=near))
-        return [Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)]
+        return [
+            Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)
+        ]
     raise OracleFailure(f"the oracle cannot yet solve '{predicate}' conditions (task {env.task_spec.name})")
 
 
@@ -235,7 +238,9 @@ def _top_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
 
     ordered = list(objects)
     for _ in range(len(ordered) ** 2):  # move an object before the first one it rests on, until none is after one
-        moves = [(i, j) for i, upper in enumerate(ordered) for j, lower in enumerate(ordered[:i]) if rests_on(upper, lower)]
+        moves = [
+            (i, j) for i, upper in enumerate(ordered) for j, lower in enumerate(ordered[:i]) if rests_on(upper, lower)
+        ]
         if not moves:
             break
         i, j = moves[0]
@@ -374,10 +379,12 @@ class OraclePolicy(Policy):
             reachable = self._can_place_from_above_or_front(job.obj, grasp)
             spot = None
             if spread:  # a ladle bowl-first; else a free spot with the hand as grasped, else turned about the vertical
-                spot = (shared_spot(self, job, grasp, held_bottom, reachable)
-                        or head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
-                        or free_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
-                        or turned_place(env, job.obj, job.onto, grasp, held_bottom, reachable))  # fmt: skip
+                spot = (
+                    shared_spot(self, job, grasp, held_bottom, reachable)
+                    or head_first_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
+                    or free_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
+                    or turned_place(env, job.obj, job.onto, grasp, held_bottom, reachable)
+                )
             place, above_place = spot if spot is not None else place_pose(env, job, grasp, held_bottom, held_offset)
         qpos = self._planner_qpos()
         sideways = side_step_path(env, job.obj, grasp)  # (beside, over): in under an overhang, else None
@@ -460,8 +467,9 @@ class OraclePolicy(Policy):
     def _plan_front_place(self, qpos: np.ndarray, name: str, way: np.ndarray, place: np.ndarray, where: str) -> None:
         """Set the held object down on a high shelf from the front: carry it to `way` (see `_front_place_way`),
         slide it in horizontally over `place`, lower it, let go, and take the hand back up a little and out."""
-        qpos = move_for_chain(self, qpos, way, [_raised(place, FRONT_PLACE_RISE), place],
-                              f"carry '{name}' in front of {where}")  # fmt: skip
+        qpos = move_for_chain(
+            self, qpos, way, [_raised(place, FRONT_PLACE_RISE), place], f"carry '{name}' in front of {where}"
+        )
         qpos = self._move_straight(qpos, _raised(place, FRONT_PLACE_RISE), f"slide '{name}' in over {where}")
         qpos = self._move_straight(qpos, place, f"lower '{name}' onto {where}")
         self._hold(qpos, 0.0, GRIPPER_STEPS)
@@ -480,8 +488,11 @@ class OraclePolicy(Policy):
         towards = (_centre(self.env, onto)[:2] - place[:2]) if onto is not None else -place[:2]
         sign = 1.0 if float(closing[:2] @ towards) >= 0.0 else -1.0
         try:
-            return self._move(qpos, _shifted(place, sign * SLIDE_OFF * closing * np.array([1.0, 1.0, 0.0])),
-                              "slide the fingers off the object")  # fmt: skip
+            return self._move(
+                qpos,
+                _shifted(place, sign * SLIDE_OFF * closing * np.array([1.0, 1.0, 0.0])),
+                "slide the fingers off the object",
+            )
         except OracleFailure:
             return qpos
 
@@ -541,8 +552,9 @@ class OraclePolicy(Policy):
         it on as `_plan_job` does. Grasps are tried in turn until one can be planned."""
         grasps = front_grasps(self.env, job.obj)
         if not grasps:
-            raise OracleFailure(f"'{job.obj}' is under a shelf level and no hand leaning in from the open side "
-                                "clears the shelf")  # fmt: skip
+            raise OracleFailure(
+                f"'{job.obj}' is under a shelf level and no hand leaning in from the open side clears the shelf"
+            )
         planned, failure = len(self.actions), None
         for grasp in grasps:
             try:
@@ -566,8 +578,9 @@ class OraclePolicy(Policy):
         if job.onto is not None or job.at is not None:
             spread = job.onto is not None and not job.centred
             spot = free_place(env, job.obj, job.onto, grasp.pose, held_bottom, self._can_lower) if spread else None
-            place, above_place = spot if spot is not None else place_pose(env, job, grasp.pose, held_bottom,
-                                                                           held_offset)  # fmt: skip
+            place, above_place = (
+                spot if spot is not None else place_pose(env, job, grasp.pose, held_bottom, held_offset)
+            )
         qpos = self._planner_qpos()
         qpos = self._move(qpos, grasp.entry, f"reach in front of '{job.obj}'", straight=False)
         qpos = self._move(qpos, grasp.approach, f"reach in towards '{job.obj}'")
@@ -610,15 +623,20 @@ class OraclePolicy(Policy):
             grasp = rim_grasp(env, name, up)
             # the hand may hold the rim either way up; near joint limits only one of them can be planned; turned
             # about the vertical where the hand would meet a neighbour on the line of the container's axis
-            attempts = [lambda g=g: self._plan_pivot_upright(name, up, g)
-                        for turned in turned_rim_grasps(env, name, grasp) for g in (turned, _rolled(turned))]
+            attempts = [
+                lambda g=g: self._plan_pivot_upright(name, up, g)
+                for turned in turned_rim_grasps(env, name, grasp)
+                for g in (turned, _rolled(turned))
+            ]
         else:
             closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
             attempts = [lambda c=c: self._plan_reorientation_holding(name, up, c) for c in (closing, -closing)]
             end = end_grasp(env, name, up)  # first: held by the narrow part at its top end and tipped up about its base
             if end is not None:
-                attempts[:0] = [lambda g=g: self._plan_pivot_upright(name, up, g, backing=np.array([0.0, 0.0, 1.0]))
-                                for g in (end, _rolled(end))]  # fmt: skip
+                attempts[:0] = [
+                    lambda g=g: self._plan_pivot_upright(name, up, g, backing=np.array([0.0, 0.0, 1.0]))
+                    for g in (end, _rolled(end))
+                ]
         for attempt, plan in enumerate(attempts):
             try:
                 plan()
@@ -629,8 +647,9 @@ class OraclePolicy(Policy):
                 if attempt == len(attempts) - 1:
                     raise
 
-    def _plan_pivot_upright(self, name: str, up: np.ndarray, grasp: np.ndarray, backing: np.ndarray | None = None
-                            ) -> None:  # fmt: skip
+    def _plan_pivot_upright(
+        self, name: str, up: np.ndarray, grasp: np.ndarray, backing: np.ndarray | None = None
+    ) -> None:
         """Hold a lying container by its rim (`grasp`, reached straight through its opening; or any grasp reached
         straight along `backing`, the direction the hand backs away from it) and tip it up about the lowest point
         of its base, which stays on the table, then let go and lift the hand. The arm posture at the grasp is
@@ -787,13 +806,18 @@ class OraclePolicy(Policy):
         lower, upper = np.asarray(planner.joint_limits)[:7].T
         current, path = qpos.copy(), [qpos[:7].copy()]
         for fraction in np.arange(1, count + 1) / count:
-            waypoint = np.concatenate([start[:3] + fraction * (flange_pose[:3] - start[:3]),
-                                       np.roll(slerp(fraction).as_quat(), 1)])  # fmt: skip
+            waypoint = np.concatenate(
+                [start[:3] + fraction * (flange_pose[:3] - start[:3]), np.roll(slerp(fraction).as_quat(), 1)]
+            )
             solution, converged, _ = model.compute_IK_CLIK(flange, waypoint, current)
             solution = np.asarray(solution)
-            if (not converged or np.any(solution[:7] < lower - 1e-3) or np.any(solution[:7] > upper + 1e-3)
-                    or np.abs(solution[:7] - current[:7]).max() > MAX_JOINT_JUMP
-                    or self._collides(solution)):  # fmt: skip
+            if (
+                not converged
+                or np.any(solution[:7] < lower - 1e-3)
+                or np.any(solution[:7] > upper + 1e-3)
+                or np.abs(solution[:7] - current[:7]).max() > MAX_JOINT_JUMP
+                or self._collides(solution)
+            ):
                 return {"status": "straight move failed"}
             current = solution
             path.append(current[:7].copy())
@@ -900,8 +924,13 @@ def object_bottom(env: RoboLabEnv, name: str) -> float:
     return float(_world_points(env, name)[:, 2].min())
 
 
-def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, keep_sign: bool = False,
-               failed: list[np.ndarray] = ()) -> np.ndarray:  # fmt: skip
+def grasp_pose(
+    env: RoboLabEnv,
+    name: str,
+    closing: np.ndarray | None = None,
+    keep_sign: bool = False,
+    failed: list[np.ndarray] = (),
+) -> np.ndarray:
     """A top-down grasp [x, y, z, qw, qx, qy, qz] of the TCP. Of the candidate grasps (the fingers closing along
     `closing`, or along directions turned from the part's narrowest horizontal one; the hand centred on the
     object's footprint or moved along the part) the one whose hand clears the neighbours, then the one nearest the
@@ -925,8 +954,9 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
     if tool:  # held far from its mass centre it twists out of the pads
         mass_centre = _mass_centre(env, name)
         seen = _footprint_points(env, name, points)
-        if _hits(env, name, mass_centre[:2], points[:, 2].max()) or _spans(points if seen is None else seen,
-                                                                            mass_centre):  # fmt: skip
+        if _hits(env, name, mass_centre[:2], points[:, 2].max()) or _spans(
+            points if seen is None else seen, mass_centre
+        ):
             centre, part_only = np.array([mass_centre[0], mass_centre[1], centre[2]]), False
     if part_only:  # the middle is empty: grasp the part of the object nearest to it
         mapped = _footprint_points(env, name, points)  # a primitive's corners may all lie far from that part
@@ -969,13 +999,18 @@ def grasp_pose(env: RoboLabEnv, name: str, closing: np.ndarray | None = None, ke
                 fingers = 0.0  # an overhang the hand comes in under from the side (oracle_overhang)
             if tool and fingers > FINGER_CLASH_TOLERANCE:  # its widest part walled in (a drill's battery in a bin)
                 z, width, fingers, body = higher_hold(slab, direction, heights, xy, (z, width, fingers, body))
-            cost = abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
+            cost = (
+                abs(shift) + TURN_COST * turn_rank + CLASH_COST * (fingers + body) + WIDTH_COST * max(width, FIRM_WIDTH)
+            )
             # a little is pushed aside; more: the hand lands on it, or a finger catches on it (the pads grip)
             blocked = max(body - BODY_CLASH_TOLERANCE, 0.0) + max(fingers - FINGER_CLASH_TOLERANCE, 0.0)
             snag = not long and (fingers > FINGER_SNAG or width > MAX_GRASP_WIDTH)  # a utensil: across it, as before
             if long and not tool:  # ... but moved or turned where that keeps the closing pads off a neighbour (a plate)
-                snag = width > MAX_GRASP_WIDTH or pads_snag(heights, xy, direction, z, width) or (
-                    closing is None and abs(GRASP_TURNS[turn_rank]) > LONG_MAX_TURN)  # not closing along it
+                snag = (
+                    width > MAX_GRASP_WIDTH
+                    or pads_snag(heights, xy, direction, z, width)
+                    or (closing is None and abs(GRASP_TURNS[turn_rank]) > LONG_MAX_TURN)
+                )  # not closing along it
             key = (blocked > 0.0, round(blocked, 3), snag, shift != 0.0 or turn_rank > 0, cost)  # others if blocked
             if failed:
                 key = (_near_failed(xy, direction, failed), *key)
@@ -1110,8 +1145,7 @@ def _standing_container(env: RoboLabEnv, name: str) -> bool:
     return env.eval_context.entries[name].is_container and _tilt(env, name) < STANDING_TILT
 
 
-def wall_grasp(env: RoboLabEnv, name: str,
-               heights: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray | None:  # fmt: skip
+def wall_grasp(env: RoboLabEnv, name: str, heights: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray | None:
     """A top-down grasp [x, y, z, qw, qx, qy, qz] of a standing container too wide for the open fingers (a mug, a
     bowl): the fingers straddle its wall at the rim, one inside and one outside, closing across the wall. Of the
     directions around it, the one whose hand clears the neighbours and the container's own handle, at the distance
@@ -1134,8 +1168,14 @@ def wall_grasp(env: RoboLabEnv, name: str,
         z = top - WALL_GRASP_DEPTH
         beyond = points[:, :2] - centre
         radial, tangential = beyond @ outward, np.abs(beyond @ np.array([-outward[1], outward[0]]))
-        handle = bool(np.any((radial > outer + HAND_MARGIN) & (radial < outer + HANDLE_REACH)
-                             & (tangential < HANDLE_HALF_WIDTH) & (points[:, 2] > z - PAD_LENGTH)))  # fmt: skip
+        handle = bool(
+            np.any(
+                (radial > outer + HAND_MARGIN)
+                & (radial < outer + HANDLE_REACH)
+                & (tangential < HANDLE_HALF_WIDTH)
+                & (points[:, 2] > z - PAD_LENGTH)
+            )
+        )
         fingers, body = _hand_clash(heights, xy, outward, z)
         comfort = abs(float(np.linalg.norm(xy)) - COMFORTABLE_REACH)  # then the side the arm reaches most easily
         near = round(fixture_closeness(fixtures, xy, z), 2)  # away from a shelf beside it, where the arm passes it
@@ -1148,8 +1188,9 @@ def wall_grasp(env: RoboLabEnv, name: str,
     return np.concatenate([[xy[0], xy[1], z], _down_quaternion(outward)])
 
 
-def _wall_along(env: RoboLabEnv, name: str, centre: np.ndarray, outward: np.ndarray, radius: float,
-                top: float) -> tuple[float, float] | None:  # fmt: skip
+def _wall_along(
+    env: RoboLabEnv, name: str, centre: np.ndarray, outward: np.ndarray, radius: float, top: float
+) -> tuple[float, float] | None:
     """Inner and outer distance (m) from `centre` of the container's wall at its rim along `outward`, from vertical
     ray casts 2 mm apart; None where the rim there is not a thin wall."""
     at_rim = []
@@ -1205,8 +1246,9 @@ def _obstacle_heights(env: RoboLabEnv, name: str, centre: np.ndarray) -> tuple[n
     return cells, np.where([other is None for other in names], -np.inf, heights)
 
 
-def _hand_clash(heights: tuple[np.ndarray, np.ndarray] | None, xy: np.ndarray, closing: np.ndarray,
-                z: float) -> tuple[float, float]:  # fmt: skip
+def _hand_clash(
+    heights: tuple[np.ndarray, np.ndarray] | None, xy: np.ndarray, closing: np.ndarray, z: float
+) -> tuple[float, float]:
     """How far (m) anything else rises into the space that the open fingers, and the rest of the hand, sweep coming
     straight down to a grasp at (xy, z) with the fingers closing along `closing`; (0, 0) when the way is clear."""
     if heights is None:
@@ -1230,8 +1272,9 @@ def _hits(env: RoboLabEnv, name: str, xy: np.ndarray, top: float) -> bool:
     return _ray_hit(env, name, np.array([xy[0], xy[1], top + 0.01]), -1.0) is not None
 
 
-def place_pose(env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float,
-               held_offset: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def place_pose(
+    env: RoboLabEnv, job: Job, grasp: np.ndarray, held_bottom: float, held_offset: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Where the TCP goes to release the held object, and where above it the object is carried first (see
     `_over_place`): centred over `job.onto` with the object's bottom just above its top (a container's rim must be
     cleared on the way down; `free_place` finds a better spot where it can), or just above the table with the
@@ -1263,8 +1306,9 @@ def _contents_top(env: RoboLabEnv, container: str, points: np.ndarray, held: str
     return top
 
 
-def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
-                  cell: float) -> tuple[np.ndarray, np.ndarray, list[str | None]]:  # fmt: skip
+def _surface_grid(
+    env: RoboLabEnv, name: str, centre: np.ndarray, radius: float, cell: float
+) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
     """The first thing that vertical rays meet, passing through the robot and object `name`, on a grid of `cell`
     spacing around `centre`: cell centres (K, 2), heights (K,; the table's, or 0, where no object is) and the
     names of the objects hit (None: the table or nothing)."""
@@ -1293,9 +1337,15 @@ def _surface_grid(env: RoboLabEnv, name: str, centre: np.ndarray, radius: float,
 
 
 def free_place(
-    env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
-    reachable: Callable[[np.ndarray, np.ndarray], bool], first_pass: int = 0, turns: tuple[float, ...] = (),
-) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    env: RoboLabEnv,
+    name: str,
+    onto: str,
+    grasp: np.ndarray,
+    held_bottom: float,
+    reachable: Callable[[np.ndarray, np.ndarray], bool],
+    first_pass: int = 0,
+    turns: tuple[float, ...] = (),
+) -> tuple[np.ndarray, np.ndarray] | None:
     """A release pose of the TCP, and the pose above it that it is lowered from, that set `name` (held by `grasp`,
     not turned) down on a flat part of `onto` (a bin's floor, a plate) clear of what already lies there: the
     object's footprint and the open fingers over `onto` no more than PLACE_FLATNESS above its lowest point, nothing
@@ -1327,7 +1377,7 @@ def free_place(
     # rest over whatever is there (a rim), released above all of it
     tool = _tool(env, name, held_points)
     passes = ((True, True), (False, True), (False, False)) if tool else ((True, True), (None, True), (False, True))
-    for pass_index, (with_fingers, whole) in enumerate(passes[first_pass:], start=first_pass):
+    for pass_index, (with_fingers, whole) in enumerate(passes[first_pass:], start=first_pass):  # noqa: B007 (read after the loop)
         for turn in turns or (PLACE_TURNS if tool else PLACE_TURNS[:1]):  # only a long tool turns (a spoon fits
             # as held), unless `turns` are given (the hand turned by these degrees about the vertical)
             spin = _rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
@@ -1406,8 +1456,10 @@ def free_place(
     return found
 
 
-def _reached_over_rim(free: list[np.ndarray], reached: Callable[[np.ndarray], tuple | None],
-                      ) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+def _reached_over_rim(
+    free: list[np.ndarray],
+    reached: Callable[[np.ndarray], tuple | None],
+) -> tuple[np.ndarray, np.ndarray] | None:
     """Of the release poses `free`, the one farthest from the robot that `reached` finds a way in to, tried from
     the nearest to the robot outwards in PLACE_REACH_TRIES steps (a binary search: reach falls off with distance);
     None where none is reached."""
@@ -1433,8 +1485,9 @@ def _centre(env: RoboLabEnv, name: str) -> np.ndarray:
     return (points.max(axis=0) + points.min(axis=0)) / 2
 
 
-def free_spot(env: RoboLabEnv, name: str, avoid: list[str], taken: list[np.ndarray],
-              near: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+def free_spot(
+    env: RoboLabEnv, name: str, avoid: list[str], taken: list[np.ndarray], near: np.ndarray | None = None
+) -> np.ndarray:
     """A footprint [x_min, y_min, x_max, y_max] on the table where `name`, moved without turning, can be put down:
     SPOT_MARGIN clear of every other object's footprint (except those in `avoid`, which are on the move) and of the
     footprints in `taken`; of those, the one nearest the point `near` (x, y), else the middle of the safe area."""
@@ -1525,8 +1578,9 @@ def _above(env: RoboLabEnv, pose: np.ndarray, height: float, hanging: float, hel
     return raised
 
 
-def _over_place(env: RoboLabEnv, place: np.ndarray, held_bottom: float, held: str,
-                onto: str | None) -> list[np.ndarray]:  # fmt: skip
+def _over_place(
+    env: RoboLabEnv, place: np.ndarray, held_bottom: float, held: str, onto: str | None
+) -> list[np.ndarray]:
     """Where the held object may be carried to before it is lowered straight to `place`, best first: as high as
     above a release just over the top of `onto` (the way in to a low release inside a bin is then as high as the
     way to one over its rim), then only APPROACH_HEIGHT above `place` (see `_above`) where that is lower."""
@@ -1616,7 +1670,15 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------ front grasps
 # An object on a shelf level with another level above it cannot be reached from above: the hand comes in from the
 # open side, leaning out of the shelf, grasps, lifts it off the level a little and pulls it straight out.
-FRONT_TILTS = (15.0, 20.0, 25.0, 30.0, 40.0, 55.0, 70.0)  # degrees from vertical that the hand leans out of a covered level, least first
+FRONT_TILTS = (
+    15.0,
+    20.0,
+    25.0,
+    30.0,
+    40.0,
+    55.0,
+    70.0,
+)  # degrees from vertical that the hand leans out of a covered level, least first
 FRONT_TURNS = (0.0, 20.0, -20.0, 40.0, -40.0)  # degrees the leaning direction turns away from the robot's direction
 FRONT_INSET = 0.03  # m inside a long object's end nearest the open side where a leaning hand grasps it
 FRONT_MARGIN = 0.008  # m kept between the hand and a fixture
@@ -1674,11 +1736,12 @@ def _fixture_boxes(env: RoboLabEnv) -> list[tuple[np.ndarray, np.ndarray, np.nda
     return boxes
 
 
-def _inside_boxes(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
-                  margin: float) -> bool:  # fmt: skip
+def _inside_boxes(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]], margin: float) -> bool:
     """Whether any of the world `points` (N, 3) lies within `margin` of one of the `boxes`."""
-    return any(bool(np.any(np.all(np.abs((points - centre) @ rotation) <= half + margin, axis=1)))
-               for rotation, centre, half in boxes)  # fmt: skip
+    return any(
+        bool(np.any(np.all(np.abs((points - centre) @ rotation) <= half + margin, axis=1)))
+        for rotation, centre, half in boxes
+    )
 
 
 def _hand_points(pose: np.ndarray) -> np.ndarray:
@@ -1701,21 +1764,21 @@ def covered(env: RoboLabEnv, name: str, boxes: list[tuple[np.ndarray, np.ndarray
     above would need: within the object's footprint and less than the hand's length above its top."""
     boxes = _fixture_boxes(env) if boxes is None else boxes
     points = _world_points(env, name)
-    low, high = points.min(axis=0), points.max(axis=0)
     return bool(_covers(points, boxes))
 
 
-def _covers(points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
-            ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:  # fmt: skip
+def _covers(
+    points: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """The fixture boxes over the object of world `points` (over at least COVER_SHARE of its points, seen from
     above: an object beside a shelf that reaches a little under it is not covered), less than the hand's length
     above its top."""
-    low, high = points.min(axis=0), points.max(axis=0)
+    high = points.max(axis=0)
     reach = -HAND_SOLIDS[-1][2]
     found = []
     for rotation, centre, half in boxes:
         extent = np.abs(rotation) @ half
-        box_low, box_high = centre - extent, centre + extent
+        box_low = centre - extent
         local = (points - centre) @ rotation  # in the box's frame: under it where both horizontal axes are inside
         horizontal = [axis for axis in range(3) if abs(rotation[2, axis]) < 0.5]
         under = np.all(np.abs(local[:, horizontal]) <= half[horizontal], axis=1)
@@ -1777,7 +1840,6 @@ def front_grasps(env: RoboLabEnv, name: str) -> list[FrontGrasp]:
     boxes = _fixture_boxes(env)
     points = _world_points(env, name)
     bottom, top = float(points[:, 2].min()), float(points[:, 2].max())
-    centre = (points.max(axis=0) + points.min(axis=0)) / 2
     sides = _open_sides(points, boxes)
     wall = env.eval_context.entries[name].is_container and _tilt(env, name) < STANDING_TILT
     rim = points[points[:, 2] > top - 0.01]
@@ -1835,8 +1897,12 @@ def front_grasps(env: RoboLabEnv, name: str) -> list[FrontGrasp]:
     return found
 
 
-def _outside(pose: np.ndarray, out: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
-             held: np.ndarray | None = None) -> np.ndarray | None:  # fmt: skip
+def _outside(
+    pose: np.ndarray,
+    out: np.ndarray,
+    boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    held: np.ndarray | None = None,
+) -> np.ndarray | None:
     """`pose` moved horizontally along `out` until the hand (and the `held` points, relative to the TCP) is outside
     the footprint of every fixture box, the hand clear of them all the way; None if it would hit one first."""
     tall = [(rotation, centre, half + np.array([0.0, 0.0, 1.0])) for rotation, centre, half in boxes]

@@ -113,8 +113,14 @@ def balance_grasp(env: RoboLabEnv, name: str, failed: list[np.ndarray] = ()) -> 
     return None
 
 
-def head_first_place(env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
-                     reachable: Callable[[np.ndarray, np.ndarray], bool]) -> tuple[np.ndarray, np.ndarray] | None:
+def head_first_place(
+    env: RoboLabEnv,
+    name: str,
+    onto: str,
+    grasp: np.ndarray,
+    held_bottom: float,
+    reachable: Callable[[np.ndarray, np.ndarray], bool],
+) -> tuple[np.ndarray, np.ndarray] | None:
     """For a tool with a heavy wide end (see `heavy_end`) too long for the floor of container `onto`: a release
     pose of the TCP (holding it by `grasp`), and the pose above it that it is lowered from, with the heavy end over
     the floor next to the wall (HEAD_FIRST_MARGIN clear of the wall and of what already lies there), the tool's

@@ -30,8 +30,9 @@ def held_spread(env: RoboLabEnv, name: str, grasp: np.ndarray) -> float:
     return float(np.linalg.norm(_world_points(env, name)[:, :2] - grasp[:2], axis=1).max())
 
 
-def carry_height(env: RoboLabEnv, name: str, start: np.ndarray, end: np.ndarray, hanging: float, spread: float,
-                 onto: str | None) -> float | None:  # fmt: skip
+def carry_height(
+    env: RoboLabEnv, name: str, start: np.ndarray, end: np.ndarray, hanging: float, spread: float, onto: str | None
+) -> float | None:
     """A TCP height from which object `name`, hanging `hanging` m below the TCP and reaching `spread` m around it,
     passes TRAVEL_CLEARANCE above every other object (but its destination `onto`) near the straight way from TCP
     position `start` to `end`, of those parts farther than TRAVEL_RADIUS from both ends (the lifted pose and the
@@ -59,8 +60,15 @@ def carry_height(env: RoboLabEnv, name: str, start: np.ndarray, end: np.ndarray,
     return highest
 
 
-def high_carry(env: RoboLabEnv, name: str, lifted: np.ndarray, above_place: np.ndarray, hanging: float,
-               spread: float, onto: str | None) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+def high_carry(
+    env: RoboLabEnv,
+    name: str,
+    lifted: np.ndarray,
+    above_place: np.ndarray,
+    hanging: float,
+    spread: float,
+    onto: str | None,
+) -> tuple[np.ndarray, np.ndarray] | None:
     """The lifted pose raised to clear what stands on the way to `above_place`, and the pose over the place at that
     height (from which the object is lowered to `above_place`); None where the way is clear as it is, or where
     clearing it takes a height above `above_place` (the way is then left as it was)."""

@@ -39,8 +39,9 @@ def off_part(footprint: np.ndarray | None, xy: np.ndarray, closing: np.ndarray) 
     return measured is not None and abs(measured[0]) + measured[1] / 2 > oracle.OPEN_FINGER_REACH
 
 
-def centred_grasp(footprint: np.ndarray, directions: list[np.ndarray], bottom: float,
-                  heights: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, float, np.ndarray] | None:  # fmt: skip
+def centred_grasp(
+    footprint: np.ndarray, directions: list[np.ndarray], bottom: float, heights: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[np.ndarray, float, np.ndarray] | None:
     """(xy, z, closing) of a top-down grasp of a light long object seen from above as `footprint`: the hand on the
     object's long axis, moved along it by one of the oracle's GRASP_SHIFTS, closing along one of `directions` (the
     turns of the oracle's GRASP_TURNS, in order), and then moved along the closing direction until the part between
@@ -70,8 +71,11 @@ def centred_grasp(footprint: np.ndarray, directions: list[np.ndarray], bottom: f
             z, width = oracle._grasp_height(slab, direction, bottom)
             fingers, body = oracle._hand_clash(heights, xy, direction, z)
             blocked = max(body - oracle.BODY_CLASH_TOLERANCE, 0.0) + max(fingers - oracle.FINGER_CLASH_TOLERANCE, 0.0)
-            snag = width > oracle.MAX_GRASP_WIDTH or pads_snag(heights, xy, direction, z, width) or (
-                abs(oracle.GRASP_TURNS[turn_rank]) > oracle.LONG_MAX_TURN)  # turned far from across it
+            snag = (
+                width > oracle.MAX_GRASP_WIDTH
+                or pads_snag(heights, xy, direction, z, width)
+                or (abs(oracle.GRASP_TURNS[turn_rank]) > oracle.LONG_MAX_TURN)
+            )  # turned far from across it
             cost = abs(shift) + oracle.TURN_COST * turn_rank + oracle.CLASH_COST * (fingers + body)
             key = (blocked > 0.0, round(blocked, 3), snag, cost)
             if best_key is None or key < best_key:

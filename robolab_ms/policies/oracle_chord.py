@@ -45,16 +45,31 @@ def straight_sided(points: np.ndarray) -> bool:
     return True
 
 
-def chord_grasp(env: RoboLabEnv, name: str, points: np.ndarray, centre: np.ndarray, directions: list[np.ndarray],
-                bottom: float, heights, failed: list[np.ndarray]) -> tuple[np.ndarray, float, np.ndarray] | None:  # fmt: skip
+def chord_grasp(
+    env: RoboLabEnv,
+    name: str,
+    points: np.ndarray,
+    centre: np.ndarray,
+    directions: list[np.ndarray],
+    bottom: float,
+    heights,
+    failed: list[np.ndarray],
+) -> tuple[np.ndarray, float, np.ndarray] | None:
     """(xy, z, closing) of a grasp of the round object `name` (world `points`, footprint middle `centre`) off its
     middle, where the widest chord between the pads (FINGER_HALF_WIDTH either side of their line; a circle of the
     object's radius, as its surface points may be sparse) is CHORD_ROOM narrower than MAX_GRASP_WIDTH; None where
     the object is no standing can (`round_section`, `straight_sided`), a grasp through its middle fits, or no chord
     does. Of the closing `directions` and the two sides, the one whose hand clears the neighbours best, then the
     one away from grasps in `failed`, then the nearest to the robot (the arm reaches it most easily)."""
-    from robolab_ms.policies.oracle import (CLASH_COST, FINGER_HALF_WIDTH, MAX_GRASP_WIDTH, MIN_SLAB_POINTS,
-                                            _grasp_height, _hand_clash, _near_failed)  # fmt: skip
+    from robolab_ms.policies.oracle import (
+        CLASH_COST,
+        FINGER_HALF_WIDTH,
+        MAX_GRASP_WIDTH,
+        MIN_SLAB_POINTS,
+        _grasp_height,
+        _hand_clash,
+        _near_failed,
+    )
 
     if env.eval_context.entries[name].is_container or not round_section(points) or not straight_sided(points):
         return None
@@ -79,8 +94,11 @@ def chord_grasp(env: RoboLabEnv, name: str, points: np.ndarray, centre: np.ndarr
                 slab = points[np.abs(offsets - side * shift) < FINGER_HALF_WIDTH]
                 z, _ = _grasp_height(slab if len(slab) >= MIN_SLAB_POINTS else points, direction, bottom)
                 fingers, body = _hand_clash(heights, xy, direction, z)
-                key = (round(CLASH_COST * (fingers + body), 3), _near_failed(xy, direction, failed),
-                       float(np.linalg.norm(xy)) + 0.005 * rank)  # fmt: skip
+                key = (
+                    round(CLASH_COST * (fingers + body), 3),
+                    _near_failed(xy, direction, failed),
+                    float(np.linalg.norm(xy)) + 0.005 * rank,
+                )
                 if best_key is None or key < best_key:
                     best, best_key = (xy, z, direction), key
                 break

@@ -112,8 +112,13 @@ def _clears_below(policy: OraclePolicy, pose: np.ndarray, target: np.ndarray) ->
     """Whether TCP pose `pose` is at least APPROACH_HEIGHT above `target` and its fingertips TRAVEL_CLEARANCE above
     every object within TRAVEL_RADIUS that rises from below it (the fixtures aside, which the planner keeps the arm
     out of, and what stands on their levels above the hand)."""
-    from robolab_ms.policies.oracle import (APPROACH_HEIGHT, FINGERTIP_BELOW_TCP, TRAVEL_CLEARANCE, TRAVEL_RADIUS,
-                                            _world_points)  # fmt: skip
+    from robolab_ms.policies.oracle import (
+        APPROACH_HEIGHT,
+        FINGERTIP_BELOW_TCP,
+        TRAVEL_CLEARANCE,
+        TRAVEL_RADIUS,
+        _world_points,
+    )
 
     if pose[2] < target[2] + APPROACH_HEIGHT - 1e-6:
         return False
@@ -151,8 +156,9 @@ def _free_joint_line(policy: OraclePolicy, qpos: np.ndarray, goal: np.ndarray) -
     return position
 
 
-def reach_over_clear(policy: OraclePolicy, qpos: np.ndarray, above: np.ndarray, target: np.ndarray,
-                     name: str) -> np.ndarray:  # fmt: skip
+def reach_over_clear(
+    policy: OraclePolicy, qpos: np.ndarray, above: np.ndarray, target: np.ndarray, name: str
+) -> np.ndarray:
     """Queue the move from posture `qpos` to TCP pose `above` over object `name` (`OraclePolicy._reach_over`);
     where fixtures are in the scene and the straight move from there down to `target` cannot be planned, the move
     goes instead to a posture from which it can (`clear_posture`), if there is one; where `above` cannot be reached
@@ -200,8 +206,9 @@ def _clear_approach(policy: OraclePolicy, qpos: np.ndarray, above: np.ndarray, t
     return None
 
 
-def move_for_chain(policy: OraclePolicy, qpos: np.ndarray, pose: np.ndarray, chain: list[np.ndarray],
-                   what: str) -> np.ndarray:  # fmt: skip
+def move_for_chain(
+    policy: OraclePolicy, qpos: np.ndarray, pose: np.ndarray, chain: list[np.ndarray], what: str
+) -> np.ndarray:
     """Queue the move from posture `qpos` to TCP pose `pose` (`OraclePolicy._move`, a sampled path allowed) so that
     it ends in a posture from which the straight moves through the TCP poses `chain` can be planned: where the
     posture it reaches has none, the postures over `pose` found from many random starts are tried (nearest the

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
     from robolab_ms.policies.oracle import Job, OraclePolicy

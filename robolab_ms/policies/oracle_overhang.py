@@ -31,8 +31,14 @@ STEP_SETTLE_STEPS = 12  # control steps held after moving in, for the arm to cat
 STEP_LIFT = 0.01  # m the held object is raised off the table before the hand moves back out sideways
 
 
-def side_step(env: RoboLabEnv, name: str, xy: np.ndarray, closing: np.ndarray, z: float,
-              heights: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray | None:  # fmt: skip
+def side_step(
+    env: RoboLabEnv,
+    name: str,
+    xy: np.ndarray,
+    closing: np.ndarray,
+    z: float,
+    heights: tuple[np.ndarray, np.ndarray] | None,
+) -> np.ndarray | None:
     """The horizontal offset (x, y) of the pose above a top-down grasp of `name` at (xy, z), fingers closing along
     `closing`, from which the hand comes in sideways under an overhang (see the module's docstring); None where
     the way straight down is clear, where something other than an overhang high enough is in the fingers' way, or
@@ -52,7 +58,7 @@ def side_step(env: RoboLabEnv, name: str, xy: np.ndarray, closing: np.ndarray, z
     in_way = (u <= half_u + margin) & (np.abs(v) <= half_v + margin) & (tops > z - reach)
     if not in_way.any():
         return None
-    body = ((u <= WRIST_HALF + margin) & (np.abs(v) <= WRIST_HALF + margin) & (tops > z + oracle.HAND_PARTS[1][2]))
+    body = (u <= WRIST_HALF + margin) & (np.abs(v) <= WRIST_HALF + margin) & (tops > z + oracle.HAND_PARTS[1][2])
     if body.any():  # the gripper's body or the wrist over the grasp would hit it: no way in
         return None
     sides = np.sign(v[in_way])

@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def pads_snag(heights: tuple[np.ndarray, np.ndarray] | None, xy: np.ndarray, closing: np.ndarray, z: float,
-              width: float) -> bool:  # fmt: skip
+def pads_snag(
+    heights: tuple[np.ndarray, np.ndarray] | None, xy: np.ndarray, closing: np.ndarray, z: float, width: float
+) -> bool:
     """Whether anything in the obstacle grid `heights` (cell centres, tops; the oracle's `_obstacle_heights`) rises
     above the lower ends of the closed pads anywhere the open pads sweep on their way to a part `width` wide held at
     (xy, z), the fingers closing along `closing`: within the open finger's outer face along the closing direction

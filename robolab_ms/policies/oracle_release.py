@@ -20,9 +20,13 @@ if TYPE_CHECKING:
 ROOM_MARGIN = 0.015  # m between the object where it is moved in to and a second one of its size beside it
 
 
-def backed_off(free: list[np.ndarray], found: tuple[np.ndarray, np.ndarray],
-               reached: Callable[[np.ndarray], tuple | None], held: np.ndarray,
-               grasp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def backed_off(
+    free: list[np.ndarray],
+    found: tuple[np.ndarray, np.ndarray],
+    reached: Callable[[np.ndarray], tuple | None],
+    held: np.ndarray,
+    grasp: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """The release poses `found` (the free spot farthest from the robot that the arm reaches, at the edge of its
     reach, where it takes odd postures and the arm sweeps through a bin's wall on its way back) moved in to the
     farthest free spot of `free` at least PLACE_REACH_MARGIN nearer the robot that `reached` finds a way to, if an
@@ -68,8 +72,14 @@ def settle_pose(env: RoboLabEnv, name: str, grasp: np.ndarray) -> np.ndarray:
     return pose
 
 
-def turned_place(env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
-                 reachable: Callable[[np.ndarray, np.ndarray], bool]) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+def turned_place(
+    env: RoboLabEnv,
+    name: str,
+    onto: str,
+    grasp: np.ndarray,
+    held_bottom: float,
+    reachable: Callable[[np.ndarray, np.ndarray], bool],
+) -> tuple[np.ndarray, np.ndarray] | None:
     """`free_place` with the hand turned about the vertical, by the oracle's PLACE_TURNS in turn (the least turn
     first), for a held object that no free spot of `onto` takes with the hand as it grasped: near the edge of the
     arm's reach the wrist's turn decides whether a pose is reached at all. The first release pose and the pose

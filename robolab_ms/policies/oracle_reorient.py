@@ -52,7 +52,12 @@ def end_grasp(env: RoboLabEnv, name: str, up: np.ndarray) -> np.ndarray | None:
 
 
 RIM_YAWS = (0.0, 20.0, -20.0, 35.0, -35.0, 50.0, -50.0)  # degrees a rim grasp's hand turns about the vertical ...
-RIM_PITCHES = (0.0, 12.0, 24.0, 36.0)  # ... and degrees its wrist rises (the pads tilt off the wall: a firm hold needs little)
+RIM_PITCHES = (
+    0.0,
+    12.0,
+    24.0,
+    36.0,
+)  # ... and degrees its wrist rises (the pads tilt off the wall: a firm hold needs little)
 NEIGHBOUR_MARGIN = 0.01  # m kept between the hand at a grasp and the bounding box of any other object
 
 

@@ -29,8 +29,13 @@ def sagging_reach_height(policy: OraclePolicy, first_action: int, name: str) -> 
     the arm really takes)."""
     import sapien
 
-    from robolab_ms.policies.oracle import (FINGERTIP_BELOW_TCP, FLANGE_LINK, PASS_RADIUS, TRAVEL_CLEARANCE,
-                                            _world_points)  # fmt: skip
+    from robolab_ms.policies.oracle import (
+        FINGERTIP_BELOW_TCP,
+        FLANGE_LINK,
+        PASS_RADIUS,
+        TRAVEL_CLEARANCE,
+        _world_points,
+    )
 
     env, planner = policy.env, policy._planner
     model, flange = planner.pinocchio_model, planner.link_name_2_idx[FLANGE_LINK]

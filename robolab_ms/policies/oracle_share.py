@@ -57,8 +57,9 @@ def _outline(held: np.ndarray, grasp: np.ndarray, margin: float) -> np.ndarray:
     rotation = quat_to_matrix(grasp[3:])
     closing, across = rotation[:2, 1], rotation[:2, 0]
     closing, across = closing / max(np.linalg.norm(closing), 1e-9), across / max(np.linalg.norm(across), 1e-9)
-    fingers = np.array([s * OPEN_FINGER_REACH * closing + t * FINGER_HALF_WIDTH * across
-                        for s in (-1, 1) for t in (-1, 1)])  # fmt: skip
+    fingers = np.array(
+        [s * OPEN_FINGER_REACH * closing + t * FINGER_HALF_WIDTH * across for s in (-1, 1) for t in (-1, 1)]
+    )
     points = np.concatenate([held, fingers])
     return (points[:, None, :] + margin * _OCTAGON[None]).reshape(-1, 2)
 
@@ -85,15 +86,27 @@ def _spots(cells: np.ndarray, flat: np.ndarray, middle_offset: np.ndarray) -> np
 
 
 def shared_place(
-    env: RoboLabEnv, name: str, onto: str, grasp: np.ndarray, held_bottom: float,
-    reachable: Callable[[np.ndarray, np.ndarray], bool], after: list[str],
-) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    env: RoboLabEnv,
+    name: str,
+    onto: str,
+    grasp: np.ndarray,
+    held_bottom: float,
+    reachable: Callable[[np.ndarray, np.ndarray], bool],
+    after: list[str],
+) -> tuple[np.ndarray, np.ndarray] | None:
     """A release pose of the TCP, and the pose above it, that set `name` (held by `grasp`, not turned) down on the
     flat top of `onto` with its middle well inside the edge and its outline clear of what is there, leaving such a
     spot for the first of `after` (objects still to go onto `onto`); None where there is no such pair of spots or
     none is reached."""
-    from robolab_ms.policies.oracle import (PLACE_CELL, PLACE_FLATNESS, RELEASE_CLEARANCE, _over_place,
-                                            _surface_grid, _world_points, grasp_pose)  # fmt: skip
+    from robolab_ms.policies.oracle import (
+        PLACE_CELL,
+        PLACE_FLATNESS,
+        RELEASE_CLEARANCE,
+        _over_place,
+        _surface_grid,
+        _world_points,
+        grasp_pose,
+    )
 
     env.eval_context.refresh()
     target = _world_points(env, onto)
@@ -153,8 +166,13 @@ def shared_place(
     return None
 
 
-def shared_spot(policy: OraclePolicy, job: Job, grasp: np.ndarray, held_bottom: float,
-                reachable: Callable[[np.ndarray, np.ndarray], bool]) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+def shared_spot(
+    policy: OraclePolicy,
+    job: Job,
+    grasp: np.ndarray,
+    held_bottom: float,
+    reachable: Callable[[np.ndarray, np.ndarray], bool],
+) -> tuple[np.ndarray, np.ndarray] | None:
     """`shared_place` for the job's object where the task's jobs set several objects onto one crowded flat top
     (see `crowded_top`), leaving room for those still queued; None elsewhere, or where it finds no spot."""
     from robolab_ms.policies.oracle import jobs_for
@@ -165,5 +183,7 @@ def shared_spot(policy: OraclePolicy, job: Job, grasp: np.ndarray, held_bottom: 
     sharing = [other.obj for other in jobs_for(env) if other.onto == job.onto and not other.centred]
     if job.obj not in sharing or not crowded_top(env, job.onto, sharing):
         return None
-    after = [other.obj for other in policy.jobs if other.onto == job.onto and not other.centred and other.obj != job.obj]
+    after = [
+        other.obj for other in policy.jobs if other.onto == job.onto and not other.centred and other.obj != job.obj
+    ]
     return shared_place(env, job.obj, job.onto, grasp, held_bottom, reachable, after)

@@ -153,10 +153,16 @@ def side_grips(env: RoboLabEnv, name: str, fits: bool = False) -> list[tuple[np.
             along = rel @ direction
             lateral = rel @ -approach  # how far on the side the hand comes from
             height = rel @ closing
-            near_hand = ((np.abs(along) < SIDE_ALONG) & (lateral > 0) & (lateral < SIDE_REACH)
-                         & (np.abs(height) < SIDE_HEIGHT))  # fmt: skip
-            beside = ((along > -SIDE_ALONG) & (along < length - t) & (lateral > 0)
-                      & (lateral < 2 * radius + 2 * PACKED_GAP) & (np.abs(height) < 2 * radius))  # fmt: skip
+            near_hand = (
+                (np.abs(along) < SIDE_ALONG) & (lateral > 0) & (lateral < SIDE_REACH) & (np.abs(height) < SIDE_HEIGHT)
+            )
+            beside = (
+                (along > -SIDE_ALONG)
+                & (along < length - t)
+                & (lateral > 0)
+                & (lateral < 2 * radius + 2 * PACKED_GAP)
+                & (np.abs(height) < 2 * radius)
+            )
             blocked = near_hand | beside
             if np.any(blocked):
                 continue
@@ -218,8 +224,14 @@ def _side_hold(policy: OraclePolicy, job: Job, grips: list[tuple[np.ndarray, np.
 
 def _plan_side_hold(policy: OraclePolicy, job: Job, grasp: np.ndarray, approach: np.ndarray) -> None:
     """Queue the moves of `job` with its object held at TCP pose `grasp`, the hand coming in along `approach`."""
-    from robolab_ms.policies.oracle import (GRIPPER_STEPS, OracleFailure, _centre, _world_points, object_bottom,
-                                            place_pose)  # fmt: skip
+    from robolab_ms.policies.oracle import (
+        GRIPPER_STEPS,
+        OracleFailure,
+        _centre,
+        _world_points,
+        object_bottom,
+        place_pose,
+    )
 
     env = policy.env
     held_bottom = grasp[2] - object_bottom(env, job.obj)
@@ -280,8 +292,9 @@ RISE_STEP = 0.04  # m per straight move of a lift
 MAX_SWING = 0.6  # rad a joint may turn in a lift's step that is not a straight move, once it has risen LIFT_MIN
 
 
-def _rise(policy: OraclePolicy, qpos: np.ndarray, pose: np.ndarray, height: float,
-          what: str) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def _rise(
+    policy: OraclePolicy, qpos: np.ndarray, pose: np.ndarray, height: float, what: str
+) -> tuple[np.ndarray, np.ndarray]:
     """Queue a move of the TCP from `pose` straight up or down to `height`, in steps of RISE_STEP (each a straight
     move where one is found, else any move to it; a lift stops short where it has risen LIFT_MIN and the next step
     would swing a joint by more than MAX_SWING); returns the final joints and TCP pose."""

@@ -82,8 +82,9 @@ def draw_nearer(policy: OraclePolicy, qpos: np.ndarray, grasp: np.ndarray, name:
 Hold = tuple[float, float, float, float]  # TCP height, width closed on, fingers' clash, the rest of the hand's clash
 
 
-def higher_hold(slab: np.ndarray, closing: np.ndarray, heights: tuple[np.ndarray, np.ndarray] | None,
-                xy: np.ndarray, lower: Hold) -> Hold:  # fmt: skip
+def higher_hold(
+    slab: np.ndarray, closing: np.ndarray, heights: tuple[np.ndarray, np.ndarray] | None, xy: np.ndarray, lower: Hold
+) -> Hold:
     """A top-down hold of a tool at (x, y) `xy`, the fingers closing along `closing` (horizontal unit vector),
     GRASP_DEPTH below the top of `slab` (the tool's world points between the fingers): the TCP height, the width
     the fingers close on there (the slab from just below that height up), and how far anything else rises into

@@ -50,8 +50,10 @@ def check_chunk(chunk: Any, source: str, key: str = "actions", action_dim: int =
     if chunk.ndim == 1 and chunk.shape[0] == action_dim:
         chunk = chunk[None]  # a single action
     if chunk.ndim != 2 or chunk.shape[0] < 1 or chunk.shape[1] != action_dim:
-        raise PolicyReplyError(f"{source}: '{key}' has shape {chunk.shape}; expected (H, {action_dim}): H actions "
-                               f"of 7 joint targets and the gripper")  # fmt: skip
+        raise PolicyReplyError(
+            f"{source}: '{key}' has shape {chunk.shape}; expected (H, {action_dim}): H actions "
+            f"of 7 joint targets and the gripper"
+        )
     if not np.isfinite(chunk).all():
         bad = "NaN" if np.isnan(chunk).any() else "infinity"
         raise PolicyReplyError(f"{source}: '{key}' holds {bad}")
@@ -99,7 +101,9 @@ class ChunkedPolicy(Policy):
             from robolab_ms.tasks.spec import CONTROL_HZ
 
             self.control_hz = CONTROL_HZ
-        self._chunk: np.ndarray | None = None  # real time: the chunk executing; its action i is for step _chunk_step + i
+        self._chunk: np.ndarray | None = (
+            None  # real time: the chunk executing; its action i is for step _chunk_step + i
+        )
         self._chunk_step = 0
         self._reply: tuple[np.ndarray, int, int] | None = None  # a reply in flight: chunk, its step, arrival step
         self._last_action: np.ndarray | None = None
@@ -183,6 +187,8 @@ class ChunkedPolicy(Policy):
         if episode is not None:
             fields.update(task=episode.task, instruction_variant=episode.instruction_variant, robot=episode.robot)
         if self.action_space is not None:
-            fields.update(action_low=np.asarray(self.action_space.low, dtype=np.float32),
-                          action_high=np.asarray(self.action_space.high, dtype=np.float32))  # fmt: skip
+            fields.update(
+                action_low=np.asarray(self.action_space.low, dtype=np.float32),
+                action_high=np.asarray(self.action_space.high, dtype=np.float32),
+            )
         return fields

@@ -45,22 +45,30 @@ class ReplayPolicy(Policy):
 
     def __init__(self, replay_from: Path | str | None, replay_policy: str | None = None) -> None:
         if replay_from is None:
-            raise RoboLabError("the replay policy needs --replay-from DIR: a results folder written by "
-                               "`robolab eval --save-actions --out DIR`")  # fmt: skip
+            raise RoboLabError(
+                "the replay policy needs --replay-from DIR: a results folder written by "
+                "`robolab eval --save-actions --out DIR`"
+            )
         folder = Path(replay_from)
         root = folder / ACTIONS_DIR
         recorded = sorted(p.name for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
         if not recorded:
-            raise RoboLabError(f"{folder}: no recorded actions (no {ACTIONS_DIR}/ folder with episodes). Record them "
-                               f"with `robolab eval --policy NAME --save-actions --out {folder}`")  # fmt: skip
+            raise RoboLabError(
+                f"{folder}: no recorded actions (no {ACTIONS_DIR}/ folder with episodes). Record them "
+                f"with `robolab eval --policy NAME --save-actions --out {folder}`"
+            )
         if replay_policy is None:
             if len(recorded) > 1:
-                raise RoboLabError(f"{folder} holds recorded actions of several policies ({', '.join(recorded)}): "
-                                   "choose one with --replay-policy NAME")  # fmt: skip
+                raise RoboLabError(
+                    f"{folder} holds recorded actions of several policies ({', '.join(recorded)}): "
+                    "choose one with --replay-policy NAME"
+                )
             replay_policy = recorded[0]
         elif replay_policy.replace(":", "_") not in recorded:
-            raise RoboLabError(f"{folder} holds no recorded actions of policy '{replay_policy}' "
-                               f"(it has {', '.join(recorded)}); use --replay-policy with one of those")  # fmt: skip
+            raise RoboLabError(
+                f"{folder} holds no recorded actions of policy '{replay_policy}' "
+                f"(it has {', '.join(recorded)}); use --replay-policy with one of those"
+            )
         self.folder, self.source = folder, replay_policy
         self.endpoint = f"replay of {replay_policy} in {folder}"
         self.actions = np.zeros((0, 8), np.float32)
@@ -78,8 +86,10 @@ class ReplayPolicy(Policy):
             raise PolicyError("the replay policy needs the episode's task, variant and robot (start_episode)")
         path = actions_file(self.folder, self.source, episode.task, episode.instruction_variant, episode.robot, seed)
         if not path.exists():
-            raise PolicyError(f"no recorded actions for {episode.task} ({episode.instruction_variant}, "
-                              f"{episode.robot}) seed {seed}: {path} is missing")  # fmt: skip
+            raise PolicyError(
+                f"no recorded actions for {episode.task} ({episode.instruction_variant}, "
+                f"{episode.robot}) seed {seed}: {path} is missing"
+            )
         self.actions = np.load(path, allow_pickle=False)
         if len(self.actions) == 0:
             raise PolicyError(f"{path} holds no actions")

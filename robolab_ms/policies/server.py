@@ -41,8 +41,9 @@ def _default_action_space(robot: str) -> spaces.Box:
     """DROID's action space, for clients that do not send theirs."""
     from robolab_ms.agents.droid_model import ARM_LOWER, ARM_UPPER
 
-    return spaces.Box(np.array([*ARM_LOWER, 0.0], np.float32), np.array([*ARM_UPPER, 1.0], np.float32),
-                      dtype=np.float32)  # fmt: skip
+    return spaces.Box(
+        np.array([*ARM_LOWER, 0.0], np.float32), np.array([*ARM_UPPER, 1.0], np.float32), dtype=np.float32
+    )
 
 
 def episode_key(episode: dict[str, Any]) -> tuple:
@@ -85,9 +86,15 @@ class PolicySession:
         else:
             space = _default_action_space(robot)
         prompt = str(observation.get("prompt", ""))
-        self.policy.start_episode(EpisodeInfo(task=str(episode.get("task") or ""),
-                                              instruction_variant=str(episode.get("instruction_variant") or ""),
-                                              instruction=prompt, robot=robot, seed=seed))  # fmt: skip
+        self.policy.start_episode(
+            EpisodeInfo(
+                task=str(episode.get("task") or ""),
+                instruction_variant=str(episode.get("instruction_variant") or ""),
+                instruction=prompt,
+                robot=robot,
+                seed=seed,
+            )
+        )
         self.policy.reset(prompt, space, seed)
 
 
@@ -98,8 +105,15 @@ def server_metadata(policy: Policy, protocol: str, action_horizon: int) -> dict[
         robolab_version = version("robolab-ms")
     except PackageNotFoundError:
         robolab_version = "checkout"
-    return {"server": "robolab_ms", "protocol": protocol, "policy": policy.name, "action_horizon": action_horizon,
-            "action_dim": 8, "robolab_ms_version": robolab_version, **policy.metadata()}  # fmt: skip
+    return {
+        "server": "robolab_ms",
+        "protocol": protocol,
+        "policy": policy.name,
+        "action_horizon": action_horizon,
+        "action_dim": 8,
+        "robolab_ms_version": robolab_version,
+        **policy.metadata(),
+    }
 
 
 # ---------------------------------------------------------------------------------------------------- openpi
@@ -118,12 +132,22 @@ def _openpi_observation(request: dict[str, Any]) -> tuple[dict[str, Any], dict[s
 
 
 def _log_request(peer: Any, episode: dict[str, Any], chunk: np.ndarray, seconds: float) -> None:
-    print(f"request from {peer}: task {episode.get('task')} seed {episode.get('seed')} step {episode.get('step')}: "
-          f"{len(chunk)} actions in {seconds * 1000:.1f} ms", flush=True)  # fmt: skip
+    print(
+        f"request from {peer}: task {episode.get('task')} seed {episode.get('seed')} step {episode.get('step')}: "
+        f"{len(chunk)} actions in {seconds * 1000:.1f} ms",
+        flush=True,
+    )
 
 
-async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, action_horizon: int,
-                        ready: Callable[[], None], log_requests: bool, delay: float) -> None:  # fmt: skip
+async def _serve_openpi(
+    factory: Callable[[], Policy],
+    host: str,
+    port: int,
+    action_horizon: int,
+    ready: Callable[[], None],
+    log_requests: bool,
+    delay: float,
+) -> None:
     import http
 
     import websockets.asyncio.server as ws_server
@@ -148,8 +172,9 @@ async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, act
                     chunk = await asyncio.to_thread(session.answer, observation, episode)
                 except Exception:
                     await connection.send(traceback.format_exc())
-                    await connection.close(code=websockets.frames.CloseCode.INTERNAL_ERROR,
-                                           reason="policy error (traceback sent)")  # fmt: skip
+                    await connection.close(
+                        code=websockets.frames.CloseCode.INTERNAL_ERROR, reason="policy error (traceback sent)"
+                    )
                     return
                 reply = {"actions": chunk, "server_timing": {"infer_ms": (time.perf_counter() - start) * 1000.0}}
                 if log_requests:
@@ -172,8 +197,15 @@ async def _serve_openpi(factory: Callable[[], Policy], host: str, port: int, act
 
 
 # ---------------------------------------------------------------------------------------------------- GR00T
-def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_horizon: int,
-                 ready: Callable[[], None], log_requests: bool, delay: float) -> None:  # fmt: skip
+def _serve_gr00t(
+    factory: Callable[[], Policy],
+    host: str,
+    port: int,
+    action_horizon: int,
+    ready: Callable[[], None],
+    log_requests: bool,
+    delay: float,
+) -> None:
     import zmq
 
     from robolab_ms.policies.gr00t import gr00t_request_to_droid, pack, unpack
@@ -201,8 +233,10 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
                     while len(sessions) > MAX_GR00T_SESSIONS:
                         sessions.pop(next(iter(sessions))).policy.close()
                     chunk = session.answer(observation, episode)
-                    reply = {"action.joint_position": chunk[None, :, :-1],
-                             "action.gripper_position": chunk[None, :, -1:]}  # fmt: skip
+                    reply = {
+                        "action.joint_position": chunk[None, :, :-1],
+                        "action.gripper_position": chunk[None, :, -1:],
+                    }
                     if isinstance(request["data"].get("observation"), dict):
                         reply = [reply, {}]  # N1.6's format: (actions, info)
                     if log_requests:
@@ -218,9 +252,16 @@ def _serve_gr00t(factory: Callable[[], Policy], host: str, port: int, action_hor
         context.term()
 
 
-def serve(factory: Callable[[], Policy], host: str = "0.0.0.0", port: int | None = None, protocol: str = "openpi",
-          action_horizon: int = 10, ready: Callable[[], None] | None = None, log_requests: bool = False,
-          delay: float = 0.0) -> None:  # fmt: skip
+def serve(
+    factory: Callable[[], Policy],
+    host: str = "0.0.0.0",
+    port: int | None = None,
+    protocol: str = "openpi",
+    action_horizon: int = 10,
+    ready: Callable[[], None] | None = None,
+    log_requests: bool = False,
+    delay: float = 0.0,
+) -> None:
     """Serve the policies `factory` makes until interrupted. `ready` is called once the port is open;
     `log_requests` prints one line per answered request; `delay` (s) is the least time an answer takes."""
     port = port or PROTOCOLS[protocol]

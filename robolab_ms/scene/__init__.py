@@ -25,7 +25,22 @@ from robolab_ms.scene.spec import (
 )
 
 __all__ = [
-    "DEFAULT_TABLE_COLOR", "DEFAULT_TABLE_SIZE", "DIRECTIONS", "IDENTITY_QUAT", "OVERLAP_TOLERANCE", "RESERVED_NAMES",
-    "SAFE_PLACEMENT", "SETTLE_CLEARANCE", "TABLE_CENTER_XY", "TABLE_HEIGHT", "ObjectPlacement", "SceneSpec",
-    "footprint", "load_scene", "read_scene", "resting_height", "scene_files", "scene_names",
-]  # fmt: skip
+    "DEFAULT_TABLE_COLOR",
+    "DEFAULT_TABLE_SIZE",
+    "DIRECTIONS",
+    "IDENTITY_QUAT",
+    "OVERLAP_TOLERANCE",
+    "RESERVED_NAMES",
+    "SAFE_PLACEMENT",
+    "SETTLE_CLEARANCE",
+    "TABLE_CENTER_XY",
+    "TABLE_HEIGHT",
+    "ObjectPlacement",
+    "SceneSpec",
+    "footprint",
+    "load_scene",
+    "read_scene",
+    "resting_height",
+    "scene_files",
+    "scene_names",
+]

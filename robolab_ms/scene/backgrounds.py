@@ -49,8 +49,10 @@ class Background:
     def path(self) -> Path:
         path = hdri_dir() / self.file
         if not path.is_file():
-            raise RoboLabError(f"background '{self.name}': {path.name} is not installed. Run 'make setup' "
-                               "(scripts/setup_assets.sh needs npm) to unpack the HDR maps")  # fmt: skip
+            raise RoboLabError(
+                f"background '{self.name}': {path.name} is not installed. Run 'make setup' "
+                "(scripts/setup_assets.sh needs npm) to unpack the HDR maps"
+            )
         return path
 
 
@@ -117,37 +119,65 @@ def read_looks(file: Path) -> Looks:
     data = Fields(load_yaml(file), file)
     data.only(["version", "default_background", "default_table_material", "backgrounds", "table_materials", "floors"])
     if data.get("version", int, 1) != 1:
-        raise data.error("version", f"{data.data['version']} is not a version this robolab_ms reads", "Write version: 1")
+        raise data.error(
+            "version", f"{data.data['version']} is not a version this robolab_ms reads", "Write version: 1"
+        )
     backgrounds, materials = {}, {}
     entries = data.sub("backgrounds")
     for name in entries.data:
         item = entries.sub(name)
         item.only(["file", "description", "source", "license", "indoor", "floor", "exposure"])
-        backgrounds[name] = Background(name, item.get("file", str), item.get("description", str),
-                                       item.get("source", str), item.get("license", str), item.get("indoor", bool, True),
-                                       item.get("floor", str, "wood_planks"), item.positive("exposure", 100.0, 1.0))  # fmt: skip
+        backgrounds[name] = Background(
+            name,
+            item.get("file", str),
+            item.get("description", str),
+            item.get("source", str),
+            item.get("license", str),
+            item.get("indoor", bool, True),
+            item.get("floor", str, "wood_planks"),
+            item.positive("exposure", 100.0, 1.0),
+        )
     entries = data.sub("table_materials")
     for name in entries.data:
         item = entries.sub(name)
         item.only(["package", "texture", "description", "license", "roughness", "tint"])
-        materials[name] = TableMaterial(name, item.get("package", str), item.get("texture", str),
-                                        item.get("description", str), item.get("license", str),
-                                        item.number("roughness", 0.0, 1.0, 0.7),
-                                        tuple(item.number_list("tint", 3, [1.0, 1.0, 1.0], low=0.0, high=1.0)))  # fmt: skip
+        materials[name] = TableMaterial(
+            name,
+            item.get("package", str),
+            item.get("texture", str),
+            item.get("description", str),
+            item.get("license", str),
+            item.number("roughness", 0.0, 1.0, 0.7),
+            tuple(item.number_list("tint", 3, [1.0, 1.0, 1.0], low=0.0, high=1.0)),
+        )
     floors = {}
     entries = data.sub("floors", {})
     for name in entries.data:
         item = entries.sub(name)
         item.only(["package", "texture", "description", "license", "roughness", "tile"])
-        floors[name] = FloorMaterial(name, item.get("package", str), item.get("texture", str),
-                                     item.get("description", str), item.get("license", str),
-                                     item.number("roughness", 0.0, 1.0, 0.7), item.positive("tile", 100.0, 1.0, "m"))  # fmt: skip
+        floors[name] = FloorMaterial(
+            name,
+            item.get("package", str),
+            item.get("texture", str),
+            item.get("description", str),
+            item.get("license", str),
+            item.number("roughness", 0.0, 1.0, 0.7),
+            item.positive("tile", 100.0, 1.0, "m"),
+        )
     for name, background in backgrounds.items():
         if background.floor not in floors:
-            raise data.sub("backgrounds").error(f"{name}.floor", f"background '{name}' names floor '{background.floor}', which is not listed",
-                                f"Use one of {', '.join(floors) or '(none: add a floors section)'}")  # fmt: skip
-    looks = Looks(backgrounds, materials, floors, data.get("default_background", str, "apartment"),
-                  data.get("default_table_material", str, "light_wood"))  # fmt: skip
+            raise data.sub("backgrounds").error(
+                f"{name}.floor",
+                f"background '{name}' names floor '{background.floor}', which is not listed",
+                f"Use one of {', '.join(floors) or '(none: add a floors section)'}",
+            )
+    looks = Looks(
+        backgrounds,
+        materials,
+        floors,
+        data.get("default_background", str, "apartment"),
+        data.get("default_table_material", str, "light_wood"),
+    )
     if looks.default_background not in backgrounds:
         data.name_in("default_background", backgrounds, "background")
     if looks.default_table_material not in materials:

@@ -74,8 +74,7 @@ class RoboLabSceneBuilder(SceneBuilder):
 
         for placement in self.spec.objects:
             entry = self.catalog[placement.asset]
-            pose = sapien.Pose(p=[*placement.xy, placement.z],
-                               q=quat_multiply(yaw_quat(placement.yaw), placement.tilt))  # fmt: skip
+            pose = sapien.Pose(p=[*placement.xy, placement.z], q=quat_multiply(yaw_quat(placement.yaw), placement.tilt))
             self.objects[placement.name] = entry.build(self.scene, placement.name, pose)
         self.scene_objects = {"table": self.table, "robot_pedestal": self.pedestal, **self.objects}
         self.movable_objects = dict(self.objects)
@@ -95,19 +94,26 @@ class RoboLabSceneBuilder(SceneBuilder):
     def _add_table_visuals(self, table: ActorBuilder, half: list[float]) -> None:
         """The top in the table material, metal legs and a wooden apron under the top's long edges."""
         top = self._table_render_material()
-        table.add_box_visual(pose=sapien.Pose(p=[0, 0, half[2] - TABLE_TOP_THICKNESS / 2]),
-                             half_size=[half[0], half[1], TABLE_TOP_THICKNESS / 2], material=top)  # fmt: skip
+        table.add_box_visual(
+            pose=sapien.Pose(p=[0, 0, half[2] - TABLE_TOP_THICKNESS / 2]),
+            half_size=[half[0], half[1], TABLE_TOP_THICKNESS / 2],
+            material=top,
+        )
         legs = render_material(Look("metal", (0.55, 0.55, 0.57), 0.35, 0.9))
         leg_half = (TABLE_HEIGHT - TABLE_TOP_THICKNESS) / 2
         for sx in (-1, 1):
             for sy in (-1, 1):
                 position = [sx * (half[0] - 0.06), sy * (half[1] - 0.06), -half[2] + leg_half]
-                table.add_visual_mesh(cylinder_mesh(0.022, leg_half), legs,
-                                      sapien.Pose(p=position, q=[0.7071068, 0, 0.7071068, 0]))  # fmt: skip
+                table.add_visual_mesh(
+                    cylinder_mesh(0.022, leg_half), legs, sapien.Pose(p=position, q=[0.7071068, 0, 0.7071068, 0])
+                )
         apron = render_material(Look("wood", (0.35, 0.25, 0.16), 0.6))
         for sign in (-1, 1):
-            table.add_box_visual(pose=sapien.Pose(p=[0, sign * (half[1] - 0.07), half[2] - TABLE_TOP_THICKNESS - 0.04]),
-                                 half_size=[half[0] - 0.08, 0.01, 0.04], material=apron)  # fmt: skip
+            table.add_box_visual(
+                pose=sapien.Pose(p=[0, sign * (half[1] - 0.07), half[2] - TABLE_TOP_THICKNESS - 0.04]),
+                half_size=[half[0] - 0.08, 0.01, 0.04],
+                material=apron,
+            )
 
     def _build_stand(self) -> Actor:
         """The robot's stand: a powder-coated steel column from the floor to the robot base, on a wider foot."""
@@ -118,10 +124,12 @@ class RoboLabSceneBuilder(SceneBuilder):
             coat = render_material(Look("plastic", (0.16, 0.16, 0.17), 0.5, 0.3))
             stand.add_box_visual(half_size=stand_half, material=coat)
             plate = render_material(Look("dark_metal", (0.7, 0.7, 0.72), 0.4, 0.9))
-            stand.add_box_visual(pose=sapien.Pose(p=[0, 0, TABLE_HEIGHT / 2 - 0.005]), half_size=[0.16, 0.16, 0.006],
-                                 material=plate)  # fmt: skip
-            stand.add_box_visual(pose=sapien.Pose(p=[0, 0, -TABLE_HEIGHT / 2 + 0.01]), half_size=[0.25, 0.25, 0.01],
-                                 material=plate)  # fmt: skip
+            stand.add_box_visual(
+                pose=sapien.Pose(p=[0, 0, TABLE_HEIGHT / 2 - 0.005]), half_size=[0.16, 0.16, 0.006], material=plate
+            )
+            stand.add_box_visual(
+                pose=sapien.Pose(p=[0, 0, -TABLE_HEIGHT / 2 + 0.01]), half_size=[0.25, 0.25, 0.01], material=plate
+            )
         stand.initial_pose = sapien.Pose(p=list(ROBOT_PEDESTAL_CENTER))
         return stand.build_kinematic(name="robot_pedestal")
 
@@ -157,10 +165,15 @@ class RoboLabSceneBuilder(SceneBuilder):
         shadow_map_size = shadow_map_size or self.shadow_map_size
         self.scene.set_ambient_light(list(self.light.ambient))
         self.scene.add_directional_light(
-            list(self.light.key_direction), list(self.light.key_color), shadow=shadows,
-            position=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], 0.0], shadow_scale=SHADOW_HALF_SIZE,
-            shadow_near=-2.0, shadow_far=2.0, shadow_map_size=shadow_map_size,
-        )  # fmt: skip
+            list(self.light.key_direction),
+            list(self.light.key_color),
+            shadow=shadows,
+            position=[TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], 0.0],
+            shadow_scale=SHADOW_HALF_SIZE,
+            shadow_near=-2.0,
+            shadow_far=2.0,
+            shadow_map_size=shadow_map_size,
+        )
 
     def _table_render_material(self) -> sapien.render.RenderMaterial:
         """The table top's look: the scene's table material, the default wood for a brown table, or a laminate in
@@ -183,9 +196,10 @@ class RoboLabSceneBuilder(SceneBuilder):
         if self._jitter is None:
             self._jitter = JitterSampler(self.spec, self.catalog)
         draws = [self._jitter.draw(rng[i]) for i in range(count)]
-        jitter = {placement.name: (np.stack([draw[0][index] for draw in draws]),
-                                   np.array([draw[1][index] for draw in draws]))
-                  for index, placement in enumerate(self.spec.objects)}  # fmt: skip
+        jitter = {
+            placement.name: (np.stack([draw[0][index] for draw in draws]), np.array([draw[1][index] for draw in draws]))
+            for index, placement in enumerate(self.spec.objects)
+        }
         for placement in self.spec.objects:
             if placement.fixture:
                 continue  # a fixture (kinematic) stays where build() put it
@@ -199,18 +213,29 @@ class RoboLabSceneBuilder(SceneBuilder):
             position[:, 2] = placement.z
             quaternion = np.stack([quat_multiply(yaw_quat(angle), placement.tilt) for angle in placement.yaw + turn])
             actor = self.objects[placement.name]
-            actor.set_pose(Pose.create_from_pq(
-                torch.as_tensor(position, dtype=torch.float32), torch.as_tensor(quaternion, dtype=torch.float32)))
+            actor.set_pose(
+                Pose.create_from_pq(
+                    torch.as_tensor(position, dtype=torch.float32), torch.as_tensor(quaternion, dtype=torch.float32)
+                )
+            )
             actor.set_linear_velocity(torch.zeros((count, 3)))
             actor.set_angular_velocity(torch.zeros((count, 3)))
-
 
 
 def table_entry(spec: SceneSpec) -> CatalogObject:
     """The table as a catalog-style entry (its frame is the box centre), so predicates can treat it like an object."""
     length, width = spec.table_size
     return CatalogObject(
-        name="table", object_class="furniture", description="the work table", colors=(), rgba=spec.table_rgba,
-        mass=1.0, static_friction=1.0, dynamic_friction=1.0, restitution=0.0, source={"kind": "scene"},
-        license="n/a", parts=(Part("box", (length / 2, width / 2, TABLE_HEIGHT / 2), (0.0, 0.0, 0.0)),),
-    )  # fmt: skip
+        name="table",
+        object_class="furniture",
+        description="the work table",
+        colors=(),
+        rgba=spec.table_rgba,
+        mass=1.0,
+        static_friction=1.0,
+        dynamic_friction=1.0,
+        restitution=0.0,
+        source={"kind": "scene"},
+        license="n/a",
+        parts=(Part("box", (length / 2, width / 2, TABLE_HEIGHT / 2), (0.0, 0.0, 0.0)),),
+    )

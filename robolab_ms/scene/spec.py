@@ -129,17 +129,24 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
         table.name_in("material", looks.table_materials, "table material")
         for key in ("color", "rgba"):
             if table.has(key):
-                raise table.error(key, "is given together with material, whose texture replaces the colour",
-                                  "Give either a material or a colour")  # fmt: skip
+                raise table.error(
+                    key,
+                    "is given together with material, whose texture replaces the colour",
+                    "Give either a material or a colour",
+                )
     if table.has("color") and table.has("rgba"):
         raise table.error("rgba", "is given together with color, which it would replace", "Give only one of them")
     table_color = table.choice("color", COLOR_NAMES, DEFAULT_TABLE_COLOR)
     table_rgba = table.number_list("rgba", 4, [*COLOR_NAMES[table_color], 1.0], low=0.0, high=1.0)
-    table_size = table.number_list("size", 2, list(DEFAULT_TABLE_SIZE), low=0.0, high=MAX_TABLE_SIZE[1], above=True,
-                                   unit="m")  # fmt: skip
+    table_size = table.number_list(
+        "size", 2, list(DEFAULT_TABLE_SIZE), low=0.0, high=MAX_TABLE_SIZE[1], above=True, unit="m"
+    )
     if table_size[0] > MAX_TABLE_SIZE[0]:
-        raise table.error("size[0]", f"the table would be {table_size[0]:g} m deep and reach the robot's pedestal",
-                          f"Keep size[0] (along x, away from the robot) at most {MAX_TABLE_SIZE[0]:g} m")  # fmt: skip
+        raise table.error(
+            "size[0]",
+            f"the table would be {table_size[0]:g} m deep and reach the robot's pedestal",
+            f"Keep size[0] (along x, away from the robot) at most {MAX_TABLE_SIZE[0]:g} m",
+        )
     jitter = fields.sub("jitter", {})
     jitter.only(["xy", "yaw_deg"])
     jitter_xy = jitter.number("xy", 0.0, MAX_JITTER_XY, 0.02, unit="m")
@@ -157,20 +164,29 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
         asset = item.name_in("asset", catalog.names(), "catalog object")
         name = item.get("name", str, asset)
         if not name.replace("_", "").isalnum() or not name.isascii():
-            raise item.error("name", f"'{name}' has characters other than letters, digits and underscores",
-                             "Use a name like red_mug")  # fmt: skip
+            raise item.error(
+                "name", f"'{name}' has characters other than letters, digits and underscores", "Use a name like red_mug"
+            )
         if name in RESERVED_NAMES:
-            raise item.error("name", f"'{name}' is the name of the environment's own {name.replace('_', ' ')}",
-                             "Give the object another name")  # fmt: skip
+            raise item.error(
+                "name",
+                f"'{name}' is the name of the environment's own {name.replace('_', ' ')}",
+                "Give the object another name",
+            )
         if name in seen:
-            raise item.error("name", f"'{name}' is used twice in this scene (also by objects[{seen[name]}])",
-                             "Give each object a unique name")  # fmt: skip
+            raise item.error(
+                "name",
+                f"'{name}' is used twice in this scene (also by objects[{seen[name]}])",
+                "Give each object a unique name",
+            )
         seen[name] = index
         xy = item.number_list("xy", 2)
         for value, axis in zip(xy, "xy"):
             low, high = SAFE_PLACEMENT[axis]
             if not low <= value <= high:
-                raise item.error("xy", f"{axis} = {value} is off the usable table", f"Keep {axis} within [{low}, {high}]")
+                raise item.error(
+                    "xy", f"{axis} = {value} is off the usable table", f"Keep {axis} within [{low}, {high}]"
+                )
         tilt = IDENTITY_QUAT
         if item.has("tilt"):
             value = item.data["tilt"]
@@ -180,9 +196,12 @@ def read_scene(file: Path, catalog: Catalog | None = None) -> SceneSpec:
             elif isinstance(value, dict):
                 tilt = read_tilt(item.sub("tilt"))
             else:
-                raise item.error("tilt", f"must be a mapping or a list of them, got {value!r}",
-                                 "Write it as tilt: {axis: x, deg: 90} (axis x or y of the object, degrees), or a "
-                                 "list of such turns")  # fmt: skip
+                raise item.error(
+                    "tilt",
+                    f"must be a mapping or a list of them, got {value!r}",
+                    "Write it as tilt: {axis: x, deg: 90} (axis x or y of the object, degrees), or a "
+                    "list of such turns",
+                )
         yaw = math.radians(item.number("yaw_deg", -360.0, 360.0, 0.0, unit="degrees"))
         placements.append(ObjectPlacement(name, asset, (xy[0], xy[1]), yaw, tilt, fixture=catalog[asset].is_fixture))
     name = fields.get("name", str)
@@ -219,8 +238,11 @@ def read_supports(items: Sequence[Fields], placements: Sequence[ObjectPlacement]
             continue
         support = item.get("rests_on", str)
         if support == "table":
-            raise item.error("rests_on", "names the table, which every object without `rests_on` stands on",
-                             "Leave `rests_on` out to set the object on the table")  # fmt: skip
+            raise item.error(
+                "rests_on",
+                "names the table, which every object without `rests_on` stands on",
+                "Leave `rests_on` out to set the object on the table",
+            )
         support = item.name_in("rests_on", names, "object of this scene")
         if support == placement.name:
             raise item.error("rests_on", f"'{support}' cannot rest on itself", "Name the object it rests on or in")
@@ -231,13 +253,17 @@ def read_supports(items: Sequence[Fields], placements: Sequence[ObjectPlacement]
         while support_of[chain[-1]] is not None:
             chain.append(support_of[chain[-1]])
             if chain[-1] == placement.name:
-                raise item.error("rests_on", f"the supports form a loop ({' on '.join(chain)})",
-                                 "Let the bottom object of the pile stand on the table (leave its `rests_on` out)")  # fmt: skip
+                raise item.error(
+                    "rests_on",
+                    f"the supports form a loop ({' on '.join(chain)})",
+                    "Let the bottom object of the pile stand on the table (leave its `rests_on` out)",
+                )
     return supported
 
 
-def read_levels(items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog
-                ) -> list[ObjectPlacement]:  # fmt: skip
+def read_levels(
+    items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog
+) -> list[ObjectPlacement]:
     """The placements with their `level` field: the board of the fixture they rest on, needed when the fixture has
     several levels. A fixture stands on the table, upright."""
     by_name = {placement.name: placement for placement in placements}
@@ -245,34 +271,48 @@ def read_levels(items: Sequence[Fields], placements: Sequence[ObjectPlacement], 
     for item, placement in zip(items, placements):
         if placement.fixture:
             if placement.on is not None:
-                raise item.error("rests_on", f"'{placement.name}' is a fixture, which stands on the table",
-                                 "Leave `rests_on` out")  # fmt: skip
+                raise item.error(
+                    "rests_on", f"'{placement.name}' is a fixture, which stands on the table", "Leave `rests_on` out"
+                )
             if placement.tilt != IDENTITY_QUAT:
                 raise item.error("tilt", f"'{placement.name}' is a fixture, which stands upright", "Leave `tilt` out")
         support = by_name[placement.on] if placement.on is not None else None
         if support is None or not support.fixture:
             if item.has("level"):
-                raise item.error("level", "is given for an object that does not rest on a fixture (a shelf)",
-                                 "Leave `level` out, or name a fixture in `rests_on`")  # fmt: skip
+                raise item.error(
+                    "level",
+                    "is given for an object that does not rest on a fixture (a shelf)",
+                    "Leave `level` out, or name a fixture in `rests_on`",
+                )
             leveled.append(placement)
             continue
         levels = catalog[support.asset].levels
         if not levels:
-            raise item.error("rests_on", f"fixture '{support.name}' has no boards to stand on",
-                             "Set the object on the table, or on another object")  # fmt: skip
+            raise item.error(
+                "rests_on",
+                f"fixture '{support.name}' has no boards to stand on",
+                "Set the object on the table, or on another object",
+            )
         if not item.has("level") and len(levels) > 1:
-            raise item.error("level", f"is missing: fixture '{support.name}' has {len(levels)} levels",
-                             f"Give level: 0 (the lowest board) to {len(levels) - 1} (the highest)")  # fmt: skip
+            raise item.error(
+                "level",
+                f"is missing: fixture '{support.name}' has {len(levels)} levels",
+                f"Give level: 0 (the lowest board) to {len(levels) - 1} (the highest)",
+            )
         level = item.get("level", int, 0)
         if not 0 <= level < len(levels):
-            raise item.error("level", f"{level} is not a level of fixture '{support.name}', which has {len(levels)}",
-                             f"Give a level from 0 (the lowest board) to {len(levels) - 1} (the highest)")  # fmt: skip
+            raise item.error(
+                "level",
+                f"{level} is not a level of fixture '{support.name}', which has {len(levels)}",
+                f"Give a level from 0 (the lowest board) to {len(levels) - 1} (the highest)",
+            )
         leveled.append(replace(placement, level=level))
     return leveled
 
 
-def rest_heights(items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog
-                 ) -> list[ObjectPlacement]:  # fmt: skip
+def rest_heights(
+    items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog
+) -> list[ObjectPlacement]:
     """The placements with `z`, the height of each origin that rests the object on the table top or,
     with `rests_on`, lowered straight down onto its support (supports first), plus SETTLE_CLEARANCE."""
     from robolab_ms.scene.support import drop_height, placed_pieces
@@ -292,8 +332,9 @@ def rest_heights(items: Sequence[Fields], placements: Sequence[ObjectPlacement],
             below = by_name[placement.on]
             support = placements[below]
             support_rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(support.yaw), support.tilt)))
-            support_pieces = placed_pieces(catalog[support.asset], support_rotation,
-                                           np.array([*support.xy, height(below)]))  # fmt: skip
+            support_pieces = placed_pieces(
+                catalog[support.asset], support_rotation, np.array([*support.xy, height(below)])
+            )
             pieces = placed_pieces(entry, rotation, np.array([*placement.xy, 0.0]))
             item = items[index]
             if placement.level is not None:  # lowered onto that board, past the ones above it
@@ -303,18 +344,28 @@ def rest_heights(items: Sequence[Fields], placements: Sequence[ObjectPlacement],
                 lift = drop_height(pieces, support_pieces)
                 on_board = drop_height(pieces, boards)
                 if lift is None or on_board is None or on_board < lift - 1e-4:
-                    raise item.error("xy", f"'{placement.name}' is not over level {placement.level} of "
-                                     f"'{placement.on}' (seen from above it misses that board)",
-                                     f"Move it over the board, or give another level")  # fmt: skip
+                    raise item.error(
+                        "xy",
+                        f"'{placement.name}' is not over level {placement.level} of "
+                        f"'{placement.on}' (seen from above it misses that board)",
+                        "Move it over the board, or give another level",
+                    )
             else:
                 lift = drop_height(pieces, support_pieces)
             if lift is None:
-                raise item.error("xy", f"'{placement.name}' is not over its support '{placement.on}' (seen from above "
-                                 "their outlines do not meet)", f"Move it over '{placement.on}', or leave `rests_on` out")
+                raise item.error(
+                    "xy",
+                    f"'{placement.name}' is not over its support '{placement.on}' (seen from above "
+                    "their outlines do not meet)",
+                    f"Move it over '{placement.on}', or leave `rests_on` out",
+                )
             if lift < on_table - SETTLE_CLEARANCE:
-                raise item.error("xy", f"'{placement.name}' would rest on the table before it touches its support "
-                                 f"'{placement.on}' ({(on_table - lift) * 100:.1f} cm above it there)",
-                                 f"Move it over '{placement.on}', or leave `rests_on` out")  # fmt: skip
+                raise item.error(
+                    "xy",
+                    f"'{placement.name}' would rest on the table before it touches its support "
+                    f"'{placement.on}' ({(on_table - lift) * 100:.1f} cm above it there)",
+                    f"Move it over '{placement.on}', or leave `rests_on` out",
+                )
             z = max(on_table, lift)
         heights[placement.name] = z + (0.0 if placement.fixture else SETTLE_CLEARANCE)  # a fixture cannot settle
         return heights[placement.name]
@@ -322,8 +373,13 @@ def rest_heights(items: Sequence[Fields], placements: Sequence[ObjectPlacement],
     return [replace(placement, z=height(index)) for index, placement in enumerate(placements)]
 
 
-def check_fixture_places(items: Sequence[Fields], placements: Sequence[ObjectPlacement], catalog: Catalog,
-                         jitter_xy: float, jitter_yaw: float) -> None:
+def check_fixture_places(
+    items: Sequence[Fields],
+    placements: Sequence[ObjectPlacement],
+    catalog: Catalog,
+    jitter_xy: float,
+    jitter_yaw: float,
+) -> None:
     """An object standing on a fixture's level stays clear of the rest of the fixture (its posts, the board above)
     and has its centre over its board, at its nominal place and at the extremes of the jitter (which moves it on
     the fixture; the fixture itself stays)."""
@@ -338,8 +394,11 @@ def check_fixture_places(items: Sequence[Fields], placements: Sequence[ObjectPla
         fixture_rotation = quat_to_matrix(tuple(yaw_quat(fixture.yaw)))
         fixture_pieces = placed_pieces(fixture_entry, fixture_rotation, np.array([*fixture.xy, fixture.z]))
         board_top = fixture.z + fixture_entry.levels[placement.level]
-        boards = [piece for piece in fixture_pieces if abs(piece[:, 2].max() - board_top) <= 1e-6
-                  and ConvexHull(piece[:, :2]).volume > 0]  # fmt: skip
+        boards = [
+            piece
+            for piece in fixture_pieces
+            if abs(piece[:, 2].max() - board_top) <= 1e-6 and ConvexHull(piece[:, :2]).volume > 0
+        ]
         entry = catalog[placement.asset]
         centre = (entry.bounds[0] + entry.bounds[1]) / 2
         for dx in (-jitter_xy, 0.0, jitter_xy):
@@ -347,21 +406,34 @@ def check_fixture_places(items: Sequence[Fields], placements: Sequence[ObjectPla
                 for turn in (-jitter_yaw, 0.0, jitter_yaw):
                     rotation = quat_to_matrix(tuple(quat_multiply(yaw_quat(placement.yaw + turn), placement.tilt)))
                     position = np.array([placement.xy[0] + dx, placement.xy[1] + dy, placement.z])
-                    where = "at its place" if dx == dy == turn == 0.0 else (
-                        f"at some poses the jitter allows (moved {dx * 100:+.1f}, {dy * 100:+.1f} cm, turned "
-                        f"{math.degrees(turn):+.0f} degrees)")  # fmt: skip
+                    where = (
+                        "at its place"
+                        if dx == dy == turn == 0.0
+                        else (
+                            f"at some poses the jitter allows (moved {dx * 100:+.1f}, {dy * 100:+.1f} cm, turned "
+                            f"{math.degrees(turn):+.0f} degrees)"
+                        )
+                    )
                     depth = overlap_depth(placed_pieces(entry, rotation, position), fixture_pieces)
                     if depth > OVERLAP_TOLERANCE:
-                        raise item.error("xy", f"'{placement.name}' on level {placement.level} of '{fixture.name}' "
-                                         f"reaches {depth * 100:.1f} cm into the fixture (a post or the board above) "
-                                         f"{where}", "Move it further onto the board, choose a level with more room "
-                                         "above, or lower the scene's jitter")  # fmt: skip
+                        raise item.error(
+                            "xy",
+                            f"'{placement.name}' on level {placement.level} of '{fixture.name}' "
+                            f"reaches {depth * 100:.1f} cm into the fixture (a post or the board above) "
+                            f"{where}",
+                            "Move it further onto the board, choose a level with more room "
+                            "above, or lower the scene's jitter",
+                        )
                     xy = (rotation @ centre + position)[:2]
-                    if not any(outline_inside(xy[None], board[ConvexHull(board[:, :2]).vertices, :2], 0.0)
-                               for board in boards):  # fmt: skip
-                        raise item.error("xy", f"'{placement.name}' has its centre off level {placement.level} of "
-                                         f"'{fixture.name}' {where}", "Move it further onto the board, or lower the "
-                                         "scene's jitter")  # fmt: skip
+                    if not any(
+                        outline_inside(xy[None], board[ConvexHull(board[:, :2]).vertices, :2], 0.0) for board in boards
+                    ):
+                        raise item.error(
+                            "xy",
+                            f"'{placement.name}' has its centre off level {placement.level} of "
+                            f"'{fixture.name}' {where}",
+                            "Move it further onto the board, or lower the scene's jitter",
+                        )
 
 
 def read_tilt(tilt: Fields) -> tuple[float, float, float, float]:
@@ -370,8 +442,11 @@ def read_tilt(tilt: Fields) -> tuple[float, float, float, float]:
     tilt.only(["axis", "deg"])
     axis = tilt.choice("axis", TILT_AXES)
     if tilt.has("deg") and isinstance(tilt.data["deg"], (int, float)) and not -180 <= tilt.data["deg"] <= 180:
-        raise tilt.error("deg", f"{tilt.data['deg']} is not an angle in [-180, 180]", "Give the tilt in degrees, e.g. "
-                         "90 to lay the object on its side")  # fmt: skip
+        raise tilt.error(
+            "deg",
+            f"{tilt.data['deg']} is not an angle in [-180, 180]",
+            "Give the tilt in degrees, e.g. 90 to lay the object on its side",
+        )
     degrees = tilt.number("deg", -180.0, 180.0, unit="degrees")
     half = math.radians(degrees) / 2
     return (math.cos(half), math.sin(half), 0.0, 0.0) if axis == "x" else (math.cos(half), 0.0, math.sin(half), 0.0)
@@ -385,8 +460,9 @@ def footprint(entry: CatalogObject, placement: ObjectPlacement) -> np.ndarray:
     return points[ConvexHull(points).vertices]
 
 
-def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog: Catalog,
-                 table_size: tuple[float, float]) -> None:
+def check_layout(
+    fields: Fields, placements: Sequence[ObjectPlacement], catalog: Catalog, table_size: tuple[float, float]
+) -> None:
     """Objects lie wholly on the table and apart at their nominal places; an object may stand wholly inside the
     outline of a container (the simulator lifts it onto the container's floor in the first steps), and one resting
     on another (`rests_on`) may overlap the objects of its pile."""
@@ -410,15 +486,23 @@ def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog:
             letter = "xy"[axis]
             where = f"{letter} {reach[0]:.3f}..{reach[1]:.3f} m"
             if centre - default_size / 2 <= reach[0] and reach[1] <= centre + default_size / 2:
-                raise fields.error(f"table.size[{axis}]", f"the table ({letter} {low:.3f}..{high:.3f} m) is too small "
-                                   f"for objects[{index}] '{placement.name}' ({where})",
-                                   f"Make size[{axis}] larger or move the objects closer together")  # fmt: skip
-            raise fields.error(f"objects[{index}].xy", f"'{placement.name}' reaches past the table's edge ({where}; "
-                               f"the table spans {letter} {low:.3f}..{high:.3f} m)", "Move it further in")  # fmt: skip
+                raise fields.error(
+                    f"table.size[{axis}]",
+                    f"the table ({letter} {low:.3f}..{high:.3f} m) is too small "
+                    f"for objects[{index}] '{placement.name}' ({where})",
+                    f"Make size[{axis}] larger or move the objects closer together",
+                )
+            raise fields.error(
+                f"objects[{index}].xy",
+                f"'{placement.name}' reaches past the table's edge ({where}; "
+                f"the table spans {letter} {low:.3f}..{high:.3f} m)",
+                "Move it further in",
+            )
     lows = np.array([outline.min(axis=0) for outline in outlines])
     highs = np.array([outline.max(axis=0) for outline in outlines])
-    boxes_meet = ((np.minimum(highs[:, None], highs[None]) - np.maximum(lows[:, None], lows[None])) > OVERLAP_TOLERANCE
-                  ).all(axis=-1)  # fmt: skip
+    boxes_meet = (
+        (np.minimum(highs[:, None], highs[None]) - np.maximum(lows[:, None], lows[None])) > OVERLAP_TOLERANCE
+    ).all(axis=-1)
     for later in range(len(placements)):
         for earlier in range(later):
             if not boxes_meet[later, earlier]:  # apart already by their bounding boxes
@@ -432,14 +516,19 @@ def check_layout(fields: Fields, placements: Sequence[ObjectPlacement], catalog:
                 depth = _depth_in_space(placements[earlier], placements[later], catalog)
                 if depth <= OVERLAP_TOLERANCE:
                     continue
-            if any(catalog[placements[outer].asset].is_container
-                   and outline_inside(outlines[inner], outlines[outer], OVERLAP_TOLERANCE)
-                   for inner, outer in ((later, earlier), (earlier, later))):  # fmt: skip
+            if any(
+                catalog[placements[outer].asset].is_container
+                and outline_inside(outlines[inner], outlines[outer], OVERLAP_TOLERANCE)
+                for inner, outer in ((later, earlier), (earlier, later))
+            ):
                 continue
-            raise fields.error(f"objects[{later}].xy", f"'{placements[later].name}' overlaps objects[{earlier}] "
-                               f"'{placements[earlier].name}' by {depth * 100:.1f} cm at their nominal places",
-                               "Move them apart (leave a few centimetres for the fingers), or place the object "
-                               "wholly inside a container's outline")  # fmt: skip
+            raise fields.error(
+                f"objects[{later}].xy",
+                f"'{placements[later].name}' overlaps objects[{earlier}] "
+                f"'{placements[earlier].name}' by {depth * 100:.1f} cm at their nominal places",
+                "Move them apart (leave a few centimetres for the fingers), or place the object "
+                "wholly inside a container's outline",
+            )
 
 
 def _depth_in_space(first: ObjectPlacement, second: ObjectPlacement, catalog: Catalog) -> float:
@@ -453,8 +542,13 @@ def _depth_in_space(first: ObjectPlacement, second: ObjectPlacement, catalog: Ca
     return overlap_depth(pieces(first), pieces(second))
 
 
-def jittered_extent(entry: CatalogObject, placement: ObjectPlacement, jitter_xy: float, jitter_yaw: float,
-                    pivot: tuple[float, float] | None = None) -> np.ndarray:
+def jittered_extent(
+    entry: CatalogObject,
+    placement: ObjectPlacement,
+    jitter_xy: float,
+    jitter_yaw: float,
+    pivot: tuple[float, float] | None = None,
+) -> np.ndarray:
     """The x-y box covering an object's footprint at every pose the scene's jitter allows (its centre moved up to
     `jitter_xy` along x and along y, its yaw turned up to `jitter_yaw`, about `pivot`, the centre of the object at
     the bottom of its pile, default its own centre): [[min x, min y], [max x, max y]]."""
@@ -472,8 +566,14 @@ def jittered_extent(entry: CatalogObject, placement: ObjectPlacement, jitter_xy:
     return np.stack([low - jitter_xy, high + jitter_xy])
 
 
-def check_jittered_footprints(fields: Fields, placements: Sequence[ObjectPlacement], catalog: Catalog,
-                              table_size: tuple[float, float], jitter_xy: float, jitter_yaw: float) -> None:
+def check_jittered_footprints(
+    fields: Fields,
+    placements: Sequence[ObjectPlacement],
+    catalog: Catalog,
+    table_size: tuple[float, float],
+    jitter_xy: float,
+    jitter_yaw: float,
+) -> None:
     """Every object's whole footprint stays on the table at every pose the jitter allows, not only at its nominal
     place (check_layout): an object hanging over the edge in some episodes would tip or fall in those only."""
     table_low = np.asarray(TABLE_CENTER_XY) - np.asarray(table_size) / 2
@@ -484,8 +584,13 @@ def check_jittered_footprints(fields: Fields, placements: Sequence[ObjectPlaceme
         while by_name[base].on is not None and not by_name[by_name[base].on].fixture:
             base = by_name[base].on
         still = placement.fixture
-        low, high = jittered_extent(catalog[placement.asset], placement, 0.0 if still else jitter_xy,
-                                    0.0 if still else jitter_yaw, by_name[base].xy)  # fmt: skip
+        low, high = jittered_extent(
+            catalog[placement.asset],
+            placement,
+            0.0 if still else jitter_xy,
+            0.0 if still else jitter_yaw,
+            by_name[base].xy,
+        )
         beyond_low, beyond_high = table_low - low, high - table_high
         for axis in range(2):
             over = max(beyond_low[axis], beyond_high[axis])

@@ -64,10 +64,12 @@ def placed_pieces(entry: CatalogObject, rotation: np.ndarray, position: np.ndarr
 
 def _shared_grid(pieces: list[np.ndarray], others: list[np.ndarray]) -> np.ndarray | None:
     """Vertical lines GRID_STEP apart (x, y, (M, 2)) over the box where both sets of pieces' outlines reach."""
-    low = np.maximum(np.min([p[:, :2].min(axis=0) for p in pieces], axis=0),
-                     np.min([o[:, :2].min(axis=0) for o in others], axis=0))  # fmt: skip
-    high = np.minimum(np.max([p[:, :2].max(axis=0) for p in pieces], axis=0),
-                      np.max([o[:, :2].max(axis=0) for o in others], axis=0))  # fmt: skip
+    low = np.maximum(
+        np.min([p[:, :2].min(axis=0) for p in pieces], axis=0), np.min([o[:, :2].min(axis=0) for o in others], axis=0)
+    )
+    high = np.minimum(
+        np.max([p[:, :2].max(axis=0) for p in pieces], axis=0), np.max([o[:, :2].max(axis=0) for o in others], axis=0)
+    )
     if (high < low).any():
         return None
     xs = np.append(np.arange(low[0], high[0], GRID_STEP), high[0])

@@ -71,8 +71,9 @@ class ExportReport:
     problems: list[str] = field(default_factory=list)  # validation findings (empty for a good stage)
 
     def line(self) -> str:
-        return (f"{self.usd}: {self.bodies} bodies, {len(self.assets)} asset file(s) in "
-                f"{self.usd.parent / ASSETS_FOLDER}")  # fmt: skip
+        return (
+            f"{self.usd}: {self.bodies} bodies, {len(self.assets)} asset file(s) in {self.usd.parent / ASSETS_FOLDER}"
+        )
 
 
 def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> ExportReport:
@@ -92,9 +93,12 @@ def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> 
 
     layer = Sdf.Layer.CreateAnonymous(".usda")
     stage = Usd.Stage.Open(layer)
-    _stage_metadata(stage, f"Scene '{spec.name}' of robolab_ms, written by `robolab scene export`. Frame: the "
-                    "robot base is the origin, x away from the robot, y to its left, z up; the table top is "
-                    "z = 0.")  # fmt: skip
+    _stage_metadata(
+        stage,
+        f"Scene '{spec.name}' of robolab_ms, written by `robolab scene export`. Frame: the "
+        "robot base is the origin, x away from the robot, y to its left, z up; the table top is "
+        "z = 0.",
+    )
     physics = UsdPhysics.Scene.Define(stage, PHYSICS_SCENE)
     physics.CreateGravityDirectionAttr(pxr.Gf.Vec3f(0.0, 0.0, -1.0))
     physics.CreateGravityMagnitudeAttr(GRAVITY)
@@ -104,20 +108,27 @@ def export_scene(spec: SceneSpec, out: Path, catalog: Catalog | None = None) -> 
     write_attribute(world.GetPrim(), "scene", spec.name)
     write_attribute(world.GetPrim(), "description", spec.description)
     write_attribute(world.GetPrim(), "jitter_xy", spec.jitter_xy, Sdf.ValueTypeNames.Double)
-    write_attribute(world.GetPrim(), "jitter_yaw", round(math.degrees(spec.jitter_yaw), ANGLE_DECIMALS),
-                    Sdf.ValueTypeNames.Double)  # fmt: skip
+    write_attribute(
+        world.GetPrim(), "jitter_yaw", round(math.degrees(spec.jitter_yaw), ANGLE_DECIMALS), Sdf.ValueTypeNames.Double
+    )
     if spec.background:
         write_attribute(world.GetPrim(), "background", spec.background)
 
     length, width = spec.table_size
-    table = _static_box(stage, f"{WORLD}/table", (length / 2, width / 2, TABLE_HEIGHT / 2),
-                        (TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], -TABLE_HEIGHT / 2), spec.table_rgba[:3])  # fmt: skip
+    table = _static_box(
+        stage,
+        f"{WORLD}/table",
+        (length / 2, width / 2, TABLE_HEIGHT / 2),
+        (TABLE_CENTER_XY[0], TABLE_CENTER_XY[1], -TABLE_HEIGHT / 2),
+        spec.table_rgba[:3],
+    )
     write_attribute(table, "role", "table")
     write_attribute(table, "table_rgba", pxr.Gf.Vec4d(*spec.table_rgba), Sdf.ValueTypeNames.Double4)
     if spec.table_material:
         write_attribute(table, "table_material", spec.table_material)
-    pedestal = _static_box(stage, f"{WORLD}/robot_pedestal", ROBOT_PEDESTAL_HALF_SIZE, ROBOT_PEDESTAL_CENTER,
-                           (0.16, 0.16, 0.17))  # fmt: skip
+    pedestal = _static_box(
+        stage, f"{WORLD}/robot_pedestal", ROBOT_PEDESTAL_HALF_SIZE, ROBOT_PEDESTAL_CENTER, (0.16, 0.16, 0.17)
+    )
     write_attribute(pedestal, "role", "robot_pedestal")
 
     prim_names = set(RESERVED_NAMES)
@@ -165,8 +176,7 @@ def _stage_metadata(stage, doc: str) -> None:
     stage.GetRootLayer().documentation = doc
 
 
-def _static_box(stage, path: str, half: tuple[float, float, float], center: tuple[float, float, float],
-                rgb) -> Any:  # fmt: skip
+def _static_box(stage, path: str, half: tuple[float, float, float], center: tuple[float, float, float], rgb) -> Any:
     """A box-shaped static collider (CollisionAPI, no rigid body) with its colour."""
     pxr = pxr_modules()
     cube = pxr.UsdGeom.Cube.Define(stage, path)
@@ -200,8 +210,11 @@ def write_asset(entry: CatalogObject, folder: Path) -> Path:
     layer = Sdf.Layer.CreateAnonymous(path.suffix)
     stage = Usd.Stage.Open(layer)
     source = entry.source.get("package") or entry.source.get("generator") or entry.source.get("kind")
-    _stage_metadata(stage, f"Catalog object '{entry.name}' of robolab_ms ({entry.description}); source: {source}; "
-                    f"licence: {entry.license}. Frame: z up, origin at the centre of the bottom, metres.")  # fmt: skip
+    _stage_metadata(
+        stage,
+        f"Catalog object '{entry.name}' of robolab_ms ({entry.description}); source: {source}; "
+        f"licence: {entry.license}. Frame: z up, origin at the centre of the bottom, metres.",
+    )
     root_path = f"/{pxr.Tf.MakeValidIdentifier(entry.name)}"
     root = UsdGeom.Xform.Define(stage, root_path).GetPrim()
     stage.SetDefaultPrim(root)
@@ -227,8 +240,10 @@ def write_asset(entry: CatalogObject, folder: Path) -> Path:
 
     if entry.parts:
         colours = entry.palette or (entry.rgba,)
-        looks = [_preview_material(stage, f"{root_path}/Looks/tint{tint}", part_look(entry, tint))
-                 for tint in range(len(colours))]  # fmt: skip
+        looks = [
+            _preview_material(stage, f"{root_path}/Looks/tint{tint}", part_look(entry, tint))
+            for tint in range(len(colours))
+        ]
         for index, part in enumerate(entry.parts):
             prim = _part_prim(stage, f"{root_path}/part{index}", part)
             UsdPhysics.CollisionAPI.Apply(prim)
@@ -236,8 +251,7 @@ def write_asset(entry: CatalogObject, folder: Path) -> Path:
     else:
         UsdGeom.Scope.Define(stage, f"{root_path}/visual")
         for index, mesh in enumerate(_visual_meshes(entry, folder)):
-            prim = _mesh_prim(stage, f"{root_path}/visual/mesh{index}", mesh.points, mesh.faces, mesh.normals,
-                              mesh.uv)  # fmt: skip
+            prim = _mesh_prim(stage, f"{root_path}/visual/mesh{index}", mesh.points, mesh.faces, mesh.normals, mesh.uv)
             look = _preview_material(stage, f"{root_path}/Looks/visual{index}", mesh.look, mesh.texture, path.parent)
             bind(prim, look, False)
         collision = UsdGeom.Scope.Define(stage, f"{root_path}/collision")
@@ -289,8 +303,14 @@ def _part_prim(stage, path: str, part: Part):
     return gprim.GetPrim()
 
 
-def _mesh_prim(stage, path: str, points: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None,
-               uv: np.ndarray | None = None):  # fmt: skip
+def _mesh_prim(
+    stage,
+    path: str,
+    points: np.ndarray,
+    faces: np.ndarray,
+    normals: np.ndarray | None = None,
+    uv: np.ndarray | None = None,
+):
     """A triangle mesh (object frame) as a UsdGeom.Mesh, with vertex normals and texture coordinates when given."""
     pxr = pxr_modules()
     UsdGeom, Vt, Sdf = pxr.UsdGeom, pxr.Vt, pxr.Sdf
@@ -306,8 +326,9 @@ def _mesh_prim(stage, path: str, points: np.ndarray, faces: np.ndarray, normals:
         mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(normals, dtype=np.float32)))
         mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
     if uv is not None:
-        primvar = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
-                                                          UsdGeom.Tokens.vertex)  # fmt: skip
+        primvar = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex
+        )
         primvar.Set(Vt.Vec2fArray.FromNumpy(np.asarray(uv, dtype=np.float32)))
     return mesh.GetPrim()
 
@@ -350,8 +371,11 @@ def _texture_file(mesh_file: Path) -> Path | None:
     """The image a textured OBJ names in its material file (one map_Kd), or the sidecar PNG of the same name."""
     mtl = mesh_file.with_suffix(".mtl")
     if mtl.is_file():
-        maps = [line.split(None, 1)[1].strip() for line in mtl.read_text(errors="replace").splitlines()
-                if line.strip().startswith("map_Kd") and len(line.split(None, 1)) == 2]  # fmt: skip
+        maps = [
+            line.split(None, 1)[1].strip()
+            for line in mtl.read_text(errors="replace").splitlines()
+            if line.strip().startswith("map_Kd") and len(line.split(None, 1)) == 2
+        ]
         if len(set(maps)) == 1 and (mtl.parent / maps[0]).is_file():
             return mtl.parent / maps[0]
         return None

@@ -84,14 +84,15 @@ def _usd_error_text(error: Exception) -> str:
     return " ".join(message.strip().strip("'").split())[:300]
 
 
-def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog: Catalog | None = None
-                 ) -> ImportReport:  # fmt: skip
+def import_scene(
+    usd: Path, out: Path, mapping_file: Path | None = None, catalog: Catalog | None = None
+) -> ImportReport:
     """Read the layout of USD file `usd` into the scene file `out` (its name is the file's stem) and read that back
     with the scene loader. Bodies are prims with robolab:catalog, a RigidBodyAPI, a reference or payload, or a
     `--map` entry (`mapping_file`, see read_mapping); RoboLabError naming every prim whose catalog object is
     unknown."""
     pxr = pxr_modules()
-    Usd, UsdGeom, UsdPhysics = pxr.Usd, pxr.UsdGeom, pxr.UsdPhysics
+    Usd, UsdPhysics = pxr.Usd, pxr.UsdPhysics
     catalog = catalog or load_catalog()
     usd, out = Path(usd), Path(out)
     check_suffix(usd, "FILE")
@@ -103,8 +104,9 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
     try:
         stage = Usd.Stage.Open(str(usd))
     except pxr.Tf.ErrorException as error:  # a file USD cannot parse
-        raise RoboLabError(f"{usd} does not open as a USD stage ({_usd_error_text(error)}); give a USD file that "
-                           "`usdcat` reads") from None  # fmt: skip
+        raise RoboLabError(
+            f"{usd} does not open as a USD stage ({_usd_error_text(error)}); give a USD file that `usdcat` reads"
+        ) from None
     if stage is None:
         raise RoboLabError(f"{usd} does not open as a USD stage")
     notes = [f"USD: {error}" for error in stage.GetCompositionErrors()]
@@ -138,14 +140,18 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
             continue
         found.append((prim, name))
     if unresolved:
-        raise RoboLabError(f"{usd}: {len(unresolved)} bod{'y' if len(unresolved) == 1 else 'ies'} without a catalog "
-                           "object: " + "; ".join(unresolved) + ". Map them in a YAML file given with --map "
-                           "FILE.yaml (asset path, file name or prim name: catalog name, or null to leave the prim "
-                           "out)")  # fmt: skip
+        raise RoboLabError(
+            f"{usd}: {len(unresolved)} bod{'y' if len(unresolved) == 1 else 'ies'} without a catalog "
+            "object: " + "; ".join(unresolved) + ". Map them in a YAML file given with --map "
+            "FILE.yaml (asset path, file name or prim name: catalog name, or null to leave the prim "
+            "out)"
+        )
     if not found:
-        raise RoboLabError(f"{usd}: no bodies found under {root.GetPath()} (prims with robolab:catalog, a "
-                           "RigidBodyAPI, a reference or payload). Map prim names to catalog objects with --map "
-                           "FILE.yaml")  # fmt: skip
+        raise RoboLabError(
+            f"{usd}: no bodies found under {root.GetPath()} (prims with robolab:catalog, a "
+            "RigidBodyAPI, a reference or payload). Map prim names to catalog objects with --map "
+            "FILE.yaml"
+        )
     table_top, table_size, table_centre = _table_geometry(table_prim, convert, notes)
     bodies = []
     taken = set(RESERVED_NAMES)
@@ -158,8 +164,10 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
             body.known_support = True
         mass = prim.GetAttribute("physics:mass").Get() if prim.HasAPI(UsdPhysics.MassAPI) else None
         if mass and abs(mass - catalog[asset].mass) > 0.01 * catalog[asset].mass:
-            notes.append(f"{body.prim}: mass {mass:g} kg in the USD file, {catalog[asset].mass:g} kg in the catalog "
-                         f"('{asset}'); the scene uses the catalog's")  # fmt: skip
+            notes.append(
+                f"{body.prim}: mass {mass:g} kg in the USD file, {catalog[asset].mass:g} kg in the catalog "
+                f"('{asset}'); the scene uses the catalog's"
+            )
         bodies.append(body)
     names = {body.name for body in bodies}
     for body in bodies:
@@ -169,24 +177,30 @@ def import_scene(usd: Path, out: Path, mapping_file: Path | None = None, catalog
     _infer_supports([body for body in bodies if not body.known_support], bodies, catalog)
     data = _scene_data(out.stem, root, table_prim, table_size, bodies, catalog, usd)
     if abs(table_centre[0] - TABLE_CENTER_XY[0]) > 1e-3 or abs(table_centre[1] - TABLE_CENTER_XY[1]) > 1e-3:
-        notes.append(f"the table's centre is at x, y = {table_centre[0]:.3f}, {table_centre[1]:.3f} m in the USD "
-                     f"file; scenes put it at {TABLE_CENTER_XY[0]}, {TABLE_CENTER_XY[1]} (the bodies keep their x, "
-                     "y)")  # fmt: skip
+        notes.append(
+            f"the table's centre is at x, y = {table_centre[0]:.3f}, {table_centre[1]:.3f} m in the USD "
+            f"file; scenes put it at {TABLE_CENTER_XY[0]}, {TABLE_CENTER_XY[1]} (the bodies keep their x, "
+            "y)"
+        )
     _write_scene_file(data, out, usd)
     from robolab_ms.errors import SpecError
 
     try:
         spec = read_scene(out, catalog)
     except SpecError as error:
-        raise RoboLabError(f"the scene file written from {usd} does not pass the scene checks: {error} (fix the "
-                           "layout in the USD file and import again, or edit the scene file)") from None  # fmt: skip
+        raise RoboLabError(
+            f"the scene file written from {usd} does not pass the scene checks: {error} (fix the "
+            "layout in the USD file and import again, or edit the scene file)"
+        ) from None
     for body in bodies:
         placement = spec.placement(body.name)
         rest = placement.z - (0.0 if placement.fixture else SETTLE_CLEARANCE)
         if abs(body.position[2] - rest) > SUPPORT_NOTE_GAP and abs(body.position[2] - placement.z) > SUPPORT_NOTE_GAP:
             where = f"on '{placement.on}'" if placement.on else "on the table"
-            notes.append(f"{body.prim}: its origin is at z = {body.position[2]:.3f} m above the table top in the USD "
-                         f"file; the scene rests it {where} at z = {rest:.3f} m")  # fmt: skip
+            notes.append(
+                f"{body.prim}: its origin is at z = {body.position[2]:.3f} m above the table top in the USD "
+                f"file; the scene rests it {where} at z = {rest:.3f} m"
+            )
     return ImportReport(usd, out, spec, notes)
 
 
@@ -263,11 +277,15 @@ def _world_pose(prim, convert: np.ndarray, notes: list[str]) -> tuple[np.ndarray
     scale = np.linalg.norm(linear, axis=0)
     rotation = linear / scale
     if np.linalg.det(rotation) < 0 or np.abs(rotation.T @ rotation - np.eye(3)).max() > 1e-6:
-        raise RoboLabError(f"{prim.GetPath()}: its transform mirrors or shears the body; give it a rotation, "
-                           "translation and uniform scale only")  # fmt: skip
+        raise RoboLabError(
+            f"{prim.GetPath()}: its transform mirrors or shears the body; give it a rotation, "
+            "translation and uniform scale only"
+        )
     if np.abs(scale - 1.0).max() > 1e-6:
-        notes.append(f"{prim.GetPath()}: scaled by {', '.join(f'{s:g}' for s in scale)} in the USD file; "
-                     "the catalog object keeps its own size")  # fmt: skip
+        notes.append(
+            f"{prim.GetPath()}: scaled by {', '.join(f'{s:g}' for s in scale)} in the USD file; "
+            "the catalog object keeps its own size"
+        )
     return world[:3, 3].copy(), rotation
 
 
@@ -276,14 +294,17 @@ def _table_geometry(table_prim, convert: np.ndarray, notes: list[str]) -> tuple[
     prim the scene defaults (top at z = 0)."""
     pxr = pxr_modules()
     if table_prim is None:
-        notes.append(f"no table prim (robolab:role \"table\" or a prim named table): the table top is taken as z = 0 "
-                     f"and the table is {DEFAULT_TABLE_SIZE[0]} x {DEFAULT_TABLE_SIZE[1]} m")  # fmt: skip
+        notes.append(
+            f'no table prim (robolab:role "table" or a prim named table): the table top is taken as z = 0 '
+            f"and the table is {DEFAULT_TABLE_SIZE[0]} x {DEFAULT_TABLE_SIZE[1]} m"
+        )
         return 0.0, DEFAULT_TABLE_SIZE, np.asarray(TABLE_CENTER_XY)
     cache = pxr.UsdGeom.BBoxCache(pxr.Usd.TimeCode.Default(), [pxr.UsdGeom.Tokens.default_])
     box = cache.ComputeWorldBound(table_prim).ComputeAlignedRange()
     low, high = np.array(box.GetMin()), np.array(box.GetMax())
-    corners = np.array([[x, y, z, 1.0] for x in (low[0], high[0]) for y in (low[1], high[1])
-                        for z in (low[2], high[2])])  # fmt: skip
+    corners = np.array(
+        [[x, y, z, 1.0] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+    )
     corners = (convert @ corners.T).T[:, :3]
     low, high = corners.min(axis=0), corners.max(axis=0)
     size = tuple(round(float(v), LENGTH_DECIMALS) for v in (high - low)[:2])
@@ -358,8 +379,9 @@ def _degrees(angle: float) -> float:
     return 180.0 if value == -180.0 else value
 
 
-def _scene_data(name: str, root, table_prim, table_size: tuple[float, float], bodies: list[_Body], catalog: Catalog,
-                usd: Path) -> dict:  # fmt: skip
+def _scene_data(
+    name: str, root, table_prim, table_size: tuple[float, float], bodies: list[_Body], catalog: Catalog, usd: Path
+) -> dict:
     """The scene file's content."""
     data: dict[str, Any] = {"name": name}
     description = read_attribute(root, "description") if root.IsValid() else None
@@ -370,8 +392,14 @@ def _scene_data(name: str, root, table_prim, table_size: tuple[float, float], bo
         table["material"] = material
     else:
         rgba = _table_rgba(table_prim)
-        colour = next((name for name, rgb in COLOR_NAMES.items()
-                       if rgba[3] == 1.0 and max(abs(a - b) for a, b in zip(rgb, rgba)) < 1e-6), None)  # fmt: skip
+        colour = next(
+            (
+                name
+                for name, rgb in COLOR_NAMES.items()
+                if rgba[3] == 1.0 and max(abs(a - b) for a, b in zip(rgb, rgba)) < 1e-6
+            ),
+            None,
+        )
         if colour:
             table["color"] = colour
         else:
@@ -381,15 +409,21 @@ def _scene_data(name: str, root, table_prim, table_size: tuple[float, float], bo
     if root.IsValid():
         jitter_xy, jitter_yaw = read_attribute(root, "jitter_xy"), read_attribute(root, "jitter_yaw")
     if jitter_xy is not None or jitter_yaw is not None:
-        data["jitter"] = {key: round(float(value), ANGLE_DECIMALS) for key, value in
-                          (("xy", jitter_xy), ("yaw_deg", jitter_yaw)) if value is not None}  # fmt: skip
+        data["jitter"] = {
+            key: round(float(value), ANGLE_DECIMALS)
+            for key, value in (("xy", jitter_xy), ("yaw_deg", jitter_yaw))
+            if value is not None
+        }
     background = read_attribute(root, "background") if root.IsValid() else None
     if background:
         data["background"] = background
     items = []
     for body in bodies:
-        item: dict[str, Any] = {"name": body.name, "asset": body.asset,
-                                "xy": [round(float(v), LENGTH_DECIMALS) + 0.0 for v in body.position[:2]]}  # fmt: skip
+        item: dict[str, Any] = {
+            "name": body.name,
+            "asset": body.asset,
+            "xy": [round(float(v), LENGTH_DECIMALS) + 0.0 for v in body.position[:2]],
+        }
         yaw, turns = yaw_and_tilt(body.rotation)
         if yaw != 0.0:
             item["yaw_deg"] = yaw
@@ -424,13 +458,20 @@ def _write_scene_file(data: dict, out: Path, usd: Path) -> None:
     import yaml
 
     make_folder(out.parent, "--out")
-    header = (f"# Imported from {usd.name} by `robolab scene import`.\n"
-              "# Frame: x away from the robot, y to its left, z up; the table top is z = 0.\n")  # fmt: skip
-    body = yaml.safe_dump({key: data[key] for key in ("name", "description")}, sort_keys=False, width=120,
-                          allow_unicode=True)  # fmt: skip
-    lines = [f"{key}: " + yaml.safe_dump(data[key], default_flow_style=True, sort_keys=False, width=200).strip()
-             if isinstance(data[key], dict) else yaml.safe_dump({key: data[key]}, allow_unicode=True).strip()
-             for key in ("table", "jitter", "background") if key in data]  # fmt: skip
+    header = (
+        f"# Imported from {usd.name} by `robolab scene import`.\n"
+        "# Frame: x away from the robot, y to its left, z up; the table top is z = 0.\n"
+    )
+    body = yaml.safe_dump(
+        {key: data[key] for key in ("name", "description")}, sort_keys=False, width=120, allow_unicode=True
+    )
+    lines = [
+        f"{key}: " + yaml.safe_dump(data[key], default_flow_style=True, sort_keys=False, width=200).strip()
+        if isinstance(data[key], dict)
+        else yaml.safe_dump({key: data[key]}, allow_unicode=True).strip()
+        for key in ("table", "jitter", "background")
+        if key in data
+    ]
     lines.append("objects:")
     for item in data["objects"]:
         lines.append("  - " + yaml.safe_dump(item, default_flow_style=True, sort_keys=False, width=400).strip())

@@ -28,8 +28,9 @@ def pxr_modules():
     try:
         from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdPhysics, UsdShade, UsdValidation, Vt  # noqa: F401
     except ImportError as error:  # pragma: no cover - usd-core is pinned in requirements.lock
-        raise RoboLabError(f"USD support needs the usd-core package ({error}). Install the pinned set-up with "
-                           "'make setup'") from None  # fmt: skip
+        raise RoboLabError(
+            f"USD support needs the usd-core package ({error}). Install the pinned set-up with 'make setup'"
+        ) from None
     import pxr
 
     return pxr
@@ -38,8 +39,9 @@ def pxr_modules():
 def check_suffix(path: Path, option: str) -> None:
     """RoboLabError unless `path` (given to `option`) names a USD file."""
     if path.suffix.lower() not in USD_SUFFIXES:
-        raise RoboLabError(f"{option} {path}: a USD file ends in {', '.join(USD_SUFFIXES)}; give e.g. "
-                           f"{path.with_suffix('.usda')}")  # fmt: skip
+        raise RoboLabError(
+            f"{option} {path}: a USD file ends in {', '.join(USD_SUFFIXES)}; give e.g. {path.with_suffix('.usda')}"
+        )
 
 
 def write_attribute(prim, key: str, value: Any, kind=None) -> None:
@@ -86,7 +88,6 @@ def validate_stage(path: Path) -> list[str]:
     validators = [registry.GetOrLoadValidatorByName(name) for name in STAGE_VALIDATORS]
     context = pxr.UsdValidation.ValidationContext([v for v in validators if v is not None])
     for error in context.Validate(stage):
-        if error.GetType() in (pxr.UsdValidation.ValidationErrorType.Error,
-                               pxr.UsdValidation.ValidationErrorType.Warn):  # fmt: skip
+        if error.GetType() in (pxr.UsdValidation.ValidationErrorType.Error, pxr.UsdValidation.ValidationErrorType.Warn):
             problems.append(f"{error.GetName()}: {error.GetMessage()}")
     return problems

@@ -65,11 +65,15 @@ class EvalContext:
         if not scene.gpu_sim_enabled:  # one environment: read the PhysX bodies directly, the fastest way on CPU
             import sapien
 
-            self._bodies = [actors[name]._objs[0].find_component_by_type(sapien.physx.PhysxRigidBodyComponent)
-                            for name in self.names]  # fmt: skip
+            self._bodies = [
+                actors[name]._objs[0].find_component_by_type(sapien.physx.PhysxRigidBodyComponent)
+                for name in self.names
+            ]
             self._free_bodies = [body for body in self._bodies if not getattr(body, "kinematic", True)]
             self._body_names = {body: name for body, name in zip(self._bodies, self.names)}
-            self._finger_bodies = {body: finger for finger, link in zip(self._fingers, finger_links) for body in link._objs}
+            self._finger_bodies = {
+                body: finger for finger, link in zip(self._fingers, finger_links) for body in link._objs
+            }
             self._body_names.update(self._finger_bodies)
         bounds = np.stack([entries[name].bounds for name in self.names])  # (N, 2, 3)
         self._local_centres = torch.as_tensor(bounds.mean(axis=1), dtype=torch.float32, device=device)
@@ -171,8 +175,12 @@ class EvalContext:
     # ------------------------------------------------------------------------------------------------ geometry
     def _local_corners(self, name: str) -> torch.Tensor:
         low, high = self.entries[name].bounds
-        return self._static(("corners", name), lambda: np.array(
-            [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]))
+        return self._static(
+            ("corners", name),
+            lambda: np.array(
+                [[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])]
+            ),
+        )
 
     def container_planes(self, name: str, open_top: bool = True) -> torch.Tensor:
         """Hull planes (P, 4) of a container in its own frame; open_top drops the faces that look up."""
@@ -191,8 +199,9 @@ class EvalContext:
             net = sum(self.force_on(finger, other) for finger in self._fingers)
             return net if a == GRIPPER else -net
         if self.scene.gpu_sim_enabled:
-            return self.cached(("gpu_force", a, b), lambda: self.scene.get_pairwise_contact_forces(
-                self._body(a), self._body(b)))  # fmt: skip
+            return self.cached(
+                ("gpu_force", a, b), lambda: self.scene.get_pairwise_contact_forces(self._body(a), self._body(b))
+            )
         key = (a, b) if a <= b else (b, a)
         if key not in self._wanted_pairs and not (a in self._fingers or b in self._fingers):
             self._wanted_pairs.add(key)
@@ -273,12 +282,16 @@ def _quaternion_products_to_matrix() -> torch.Tensor:
     """C with R = (q q^T) . C for a unit quaternion q = (w, x, y, z): shape (16, 9)."""
     w, x, y, z = range(4)
     terms = {  # entry of R -> [(coefficient, a, b)] for products q_a q_b
-        (0, 0): [(1, w, w), (1, x, x), (-1, y, y), (-1, z, z)], (0, 1): [(2, x, y), (-2, w, z)],
-        (0, 2): [(2, x, z), (2, w, y)], (1, 0): [(2, x, y), (2, w, z)],
-        (1, 1): [(1, w, w), (-1, x, x), (1, y, y), (-1, z, z)], (1, 2): [(2, y, z), (-2, w, x)],
-        (2, 0): [(2, x, z), (-2, w, y)], (2, 1): [(2, y, z), (2, w, x)],
+        (0, 0): [(1, w, w), (1, x, x), (-1, y, y), (-1, z, z)],
+        (0, 1): [(2, x, y), (-2, w, z)],
+        (0, 2): [(2, x, z), (2, w, y)],
+        (1, 0): [(2, x, y), (2, w, z)],
+        (1, 1): [(1, w, w), (-1, x, x), (1, y, y), (-1, z, z)],
+        (1, 2): [(2, y, z), (-2, w, x)],
+        (2, 0): [(2, x, z), (-2, w, y)],
+        (2, 1): [(2, y, z), (2, w, x)],
         (2, 2): [(1, w, w), (-1, x, x), (-1, y, y), (1, z, z)],
-    }  # fmt: skip
+    }
     table = torch.zeros(4, 4, 3, 3)
     for (i, j), entries in terms.items():
         for coefficient, a, b in entries:

@@ -8,7 +8,6 @@ contact objects is a non-target. Thresholds have RoboLab's defaults and can be c
 
 from __future__ import annotations
 
-
 import math
 
 import torch
@@ -46,7 +45,9 @@ class EventMonitor:
         self.start_position = torch.zeros(self.num_envs, count, 3, device=self.device)
         self.start_up = torch.zeros(self.num_envs, count, 3, device=self.device)
         self.was_touching = torch.zeros(self.num_envs, count, dtype=torch.bool, device=self.device)
-        self.previous_objects = torch.zeros(self.num_envs, len(OBJECT_EVENTS), count, dtype=torch.bool, device=self.device)
+        self.previous_objects = torch.zeros(
+            self.num_envs, len(OBJECT_EVENTS), count, dtype=torch.bool, device=self.device
+        )
         self.previous_gripper = torch.zeros(self.num_envs, len(GRIPPER_EVENTS), dtype=torch.bool, device=self.device)
         self.log: list[list[dict]] = [[] for _ in range(self.num_envs)]
         self.centre = torch.tensor(SCENE_CENTRE, device=self.device)
@@ -82,20 +83,26 @@ class EventMonitor:
         cos_turned = (ups * self.start_up).sum(-1)
         others = ~targets
         touching_other = touching & others
-        object_now = torch.stack([  # in OBJECT_EVENTS order, (E, 7, O)
-            touching_other & (closed >= limits["wrong_grasp_closed"])[:, None],
-            others & (moved >= limits["bump_distance"]) & (moved < limits["move_distance"]),
-            others & (moved >= limits["move_distance"]),
-            ((positions - self.centre).abs() > limits["scene_half_size"]).any(dim=-1),
-            targets & self.was_touching & ~touching,
-            touching_other,
-            cos_turned < math.cos(limits["tip_angle"]),
-        ], dim=1)  # fmt: skip
-        gripper_now = torch.stack([  # in GRIPPER_EVENTS order, (E, 3)
-            touching_table,
-            closed >= limits["fully_closed"],
-            touching.sum(dim=1) >= 2,
-        ], dim=1)  # fmt: skip
+        object_now = torch.stack(
+            [  # in OBJECT_EVENTS order, (E, 7, O)
+                touching_other & (closed >= limits["wrong_grasp_closed"])[:, None],
+                others & (moved >= limits["bump_distance"]) & (moved < limits["move_distance"]),
+                others & (moved >= limits["move_distance"]),
+                ((positions - self.centre).abs() > limits["scene_half_size"]).any(dim=-1),
+                targets & self.was_touching & ~touching,
+                touching_other,
+                cos_turned < math.cos(limits["tip_angle"]),
+            ],
+            dim=1,
+        )
+        gripper_now = torch.stack(
+            [  # in GRIPPER_EVENTS order, (E, 3)
+                touching_table,
+                closed >= limits["fully_closed"],
+                touching.sum(dim=1) >= 2,
+            ],
+            dim=1,
+        )
         object_rising = object_now & ~self.previous_objects
         gripper_rising = gripper_now & ~self.previous_gripper
         self.previous_objects, self.previous_gripper, self.was_touching = object_now, gripper_now, touching

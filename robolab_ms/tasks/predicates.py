@@ -22,8 +22,8 @@ import torch
 from robolab_ms.scene import DIRECTIONS
 
 if TYPE_CHECKING:
-    from robolab_ms.tasks.context import EvalContext
     from robolab_ms.tasks.condition import Condition
+    from robolab_ms.tasks.context import EvalContext
 
 PredicateFn = Callable[..., torch.Tensor]
 CONTACT_FORCE_N = 0.1  # two bodies touch when the force between them exceeds this (RoboLab's threshold)
@@ -112,8 +112,9 @@ def _inside_hull(ctx: EvalContext, objects: list[str], container: str, tolerance
 
 
 @predicate("in_container", references={"container": None}, tolerance=0.0, container_max_tilt=math.pi)
-def in_container(ctx: EvalContext, objects: list[str], container: str, tolerance: float,
-                 container_max_tilt: float) -> torch.Tensor:  # fmt: skip
+def in_container(
+    ctx: EvalContext, objects: list[str], container: str, tolerance: float, container_max_tilt: float
+) -> torch.Tensor:
     """The object's centre is inside the container's convex hull or the column above its rim (any orientation);
     `tolerance` (m) widens the hull. With `container_max_tilt` (rad) below pi, the container must also stand within
     that angle of upright: a bowl knocked over onto the object does not hold it."""
@@ -135,8 +136,9 @@ def outside_of(ctx: EvalContext, objects: list[str], container: str, tolerance: 
     return ~_inside_hull(ctx, objects, container, tolerance, open_top=True)
 
 
-@predicate("outside_of_and_on_surface", references={"container": None, "surface": TABLE}, tolerance=0.0,
-           max_tilt=math.pi)  # fmt: skip
+@predicate(
+    "outside_of_and_on_surface", references={"container": None, "surface": TABLE}, tolerance=0.0, max_tilt=math.pi
+)
 def outside_of_and_on_surface(
     ctx: EvalContext, objects: list[str], container: str, surface: str, tolerance: float, max_tilt: float
 ) -> torch.Tensor:
@@ -149,14 +151,22 @@ def outside_of_and_on_surface(
 
 
 @predicate("placed_in_container_in_order", references={"container": None}, group=True, tolerance=0.0)
-def placed_in_container_in_order(ctx: EvalContext, objects: list[str], container: str, tolerance: float) -> torch.Tensor:
+def placed_in_container_in_order(
+    ctx: EvalContext, objects: list[str], container: str, tolerance: float
+) -> torch.Tensor:
     """Every object has been placed (in the container, released) and the first placements came in list order."""
     placed = _inside_hull(ctx, objects, container, tolerance, open_top=True) & released(ctx, objects)
-    first = ctx.memory(("placed_order", container, tuple(objects)),
-                       lambda: torch.zeros(ctx.num_envs, len(objects), dtype=torch.long, device=ctx.device))  # fmt: skip
+    first = ctx.memory(
+        ("placed_order", container, tuple(objects)),
+        lambda: torch.zeros(ctx.num_envs, len(objects), dtype=torch.long, device=ctx.device),
+    )
     step = ctx.elapsed_steps[:, None].expand_as(first) + 1
     first.copy_(torch.where((first == 0) & placed, step, first))  # latch each object's first placement
-    in_order = (first[:, 1:] >= first[:, :-1]).all(dim=1) if len(objects) > 1 else torch.ones_like(first[:, 0], dtype=torch.bool)
+    in_order = (
+        (first[:, 1:] >= first[:, :-1]).all(dim=1)
+        if len(objects) > 1
+        else torch.ones_like(first[:, 0], dtype=torch.bool)
+    )
     return _broadcast((first > 0).all(dim=1) & in_order & placed.all(dim=1), objects)
 
 
@@ -205,9 +215,21 @@ def stacked(ctx: EvalContext, objects: list[str], order: str) -> torch.Tensor:
     if order not in STACK_ORDERS:
         raise ValueError(f"stacked: order must be one of {', '.join(STACK_ORDERS)}, got {order!r}")
     heights = torch.stack([ctx.centre(name)[:, 2] for name in objects], dim=1)  # (E, O)
-    touching = torch.stack([torch.stack([ctx.contact_force(a, b) > CONTACT_FORCE_N if a != b
-                                         else torch.zeros(ctx.num_envs, dtype=torch.bool, device=ctx.device)
-                                         for b in objects], dim=1) for a in objects], dim=1)  # (E, O, O)  # fmt: skip
+    touching = torch.stack(
+        [
+            torch.stack(
+                [
+                    ctx.contact_force(a, b) > CONTACT_FORCE_N
+                    if a != b
+                    else torch.zeros(ctx.num_envs, dtype=torch.bool, device=ctx.device)
+                    for b in objects
+                ],
+                dim=1,
+            )
+            for a in objects
+        ],
+        dim=1,
+    )  # (E, O, O)
     if order == "none":
         sequence = heights.argsort(dim=1)  # bottom first, per environment
     else:
@@ -236,13 +258,19 @@ def _direction(axis: tuple[float, float]):
     return test
 
 
-_MEANINGS = {"left_of": "left of (+y)", "right_of": "right of (-y)",
-             "in_front_of": "in front of (closer to the robot, -x)", "behind": "behind (farther from the robot, +x)"}
+_MEANINGS = {
+    "left_of": "left of (+y)",
+    "right_of": "right of (-y)",
+    "in_front_of": "in front of (closer to the robot, -x)",
+    "behind": "behind (farther from the robot, +x)",
+}
 for _name, _axis in DIRECTIONS.items():
     _meaning = _MEANINGS[_name]
     _function = _direction(_axis)
-    _function.__doc__ = (f"The object is {_meaning} the reference, seen from the robot: the horizontal offset lies "
-                         "within `cone_deg` of that direction and the heights differ by at most `max_dz` (m).")  # fmt: skip
+    _function.__doc__ = (
+        f"The object is {_meaning} the reference, seen from the robot: the horizontal offset lies "
+        "within `cone_deg` of that direction and the heights differ by at most `max_dz` (m)."
+    )
     predicate(_name, references={"reference": None}, cone_deg=45.0, max_dz=0.1)(_function)
 
 
@@ -289,8 +317,10 @@ def was_picked_up(ctx: EvalContext, objects: list[str]) -> torch.Tensor:
     """Whether each object has been picked up off the table (`picked_up`, PICKED_UP_DISTANCE) at some step of this
     episode so far: set down by the robot, not knocked or swept there."""
     lifted = picked_up(ctx, objects, TABLE, PICKED_UP_DISTANCE)
-    seen = ctx.memory(("picked_up_once", tuple(objects)),
-                      lambda: torch.zeros(ctx.num_envs, len(objects), dtype=torch.bool, device=ctx.device))  # fmt: skip
+    seen = ctx.memory(
+        ("picked_up_once", tuple(objects)),
+        lambda: torch.zeros(ctx.num_envs, len(objects), dtype=torch.bool, device=ctx.device),
+    )
     seen |= lifted
     return seen.clone()
 

@@ -72,7 +72,9 @@ class ProgressTracker:
         self._tables = [_StageTables(stage, self.device) for stage in stages]
         self.stage_index = torch.zeros(num_envs, dtype=torch.long, device=self.device)
         # levels[s]: (num_envs, num_groups) how many conditions each group of stage s has completed
-        self.levels = [torch.zeros(num_envs, len(stage.groups), dtype=torch.long, device=self.device) for stage in stages]
+        self.levels = [
+            torch.zeros(num_envs, len(stage.groups), dtype=torch.long, device=self.device) for stage in stages
+        ]
         self._total_conditions = sum(len(group.conditions) for stage in stages for group in stage.groups)
 
     def reset(self, env_idx: torch.Tensor | None = None) -> None:

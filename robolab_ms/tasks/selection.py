@@ -62,16 +62,20 @@ def describe_filters(
     tags: Sequence[str] | None = None, difficulties: Sequence[str] | None = None, scenes: Sequence[str] | None = None
 ) -> str:
     """The filters in words, for messages: "tag spatial, difficulty complex"."""
-    parts = [f"{kind} {' or '.join(values)}" for kind, values in
-             (("tag", tags), ("difficulty", difficulties), ("scene", scenes)) if values]  # fmt: skip
+    parts = [
+        f"{kind} {' or '.join(values)}"
+        for kind, values in (("tag", tags), ("difficulty", difficulties), ("scene", scenes))
+        if values
+    ]
     return ", ".join(parts) or "no filter"
 
 
 def require_some(chosen: Sequence[TaskSpec], how: str) -> None:
     """Raise a clear error when a selection came out empty."""
     if not chosen:
-        raise RoboLabError(f"no task matches {how}; see `robolab list` for every task's attributes, axes, difficulty "
-                           "and scene")  # fmt: skip
+        raise RoboLabError(
+            f"no task matches {how}; see `robolab list` for every task's attributes, axes, difficulty and scene"
+        )
 
 
 def select_tasks(

@@ -112,8 +112,9 @@ class TaskSpec:
                 offsets.append(column)
                 conditions.append(step)
                 column += len(stage.objects)
-            groups = tuple(Group(tuple(offset + i for offset in offsets), stage.weights)
-                           for i in range(len(stage.objects)))  # fmt: skip
+            groups = tuple(
+                Group(tuple(offset + i for offset in offsets), stage.weights) for i in range(len(stage.objects))
+            )
             stages.append(Stage(groups, stage.logical, stage.k))
             targets.append(stage.objects)
         return conditions, stages, targets
@@ -187,24 +188,32 @@ def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (
             homes = {member for members in params["groups"].values() for member in members}
             for index, obj in enumerate(objects):
                 if obj not in homes:
-                    raise fields.error(f"objects[{index}]", f"'{obj}' is in none of the groups",
-                                       "Add it to a group of `groups`, or leave `objects` out")  # fmt: skip
+                    raise fields.error(
+                        f"objects[{index}]",
+                        f"'{obj}' is in none of the groups",
+                        "Add it to a group of `groups`, or leave `objects` out",
+                    )
     elif "groups" in params:  # a subtask step: the stage's objects
         homes = {member for members in params["groups"].values() for member in members}
         for obj in objects:
             if obj not in homes:
-                raise fields.error("groups", f"'{obj}', an object of this stage, is in none of the groups",
-                                   "Add it to a group")  # fmt: skip
+                raise fields.error(
+                    "groups", f"'{obj}', an object of this stage, is in none of the groups", "Add it to a group"
+                )
     if len(objects) < MIN_OBJECTS.get(name, 1):
-        raise fields.error("objects", f"has {len(objects)} object(s); '{name}' needs at least {MIN_OBJECTS[name]}",
-                           "Name more objects")  # fmt: skip
+        raise fields.error(
+            "objects", f"has {len(objects)} object(s); '{name}' needs at least {MIN_OBJECTS[name]}", "Name more objects"
+        )
     references = {}
     for key, default in info.references.items():
         if fields.has(key) or default is None:
             references[key] = fields.name_in(key, known, where)
             if references[key] in objects:
-                raise fields.error(key, f"'{references[key]}' is also an object of this condition",
-                                   "An object cannot be its own reference; name another object")  # fmt: skip
+                raise fields.error(
+                    key,
+                    f"'{references[key]}' is also an object of this condition",
+                    "An object cannot be its own reference; name another object",
+                )
             if key in CONTAINER_REFERENCES and references[key] == TABLE:
                 raise fields.error(key, "the table is not a container", "Name a container object of the scene")
         else:
@@ -212,8 +221,11 @@ def _read_condition(fields: Fields, scene: SceneSpec, extra: tuple[str, ...] = (
     logical, k = _read_logical(fields, len(objects))
     contact = fields.get("require_contact_with", bool, False)
     if contact and info.contact_reference is None:
-        raise fields.error("require_contact_with", f"'{name}' has no reference object to touch",
-                           "Leave the flag out, or use a predicate with a reference")  # fmt: skip
+        raise fields.error(
+            "require_contact_with",
+            f"'{name}' has no reference object to touch",
+            "Leave the flag out, or use a predicate with a reference",
+        )
     return Condition(
         predicate=name,
         objects=tuple(str(o) for o in objects),
@@ -232,8 +244,11 @@ def _read_objects(fields: Fields, key: str, scene: SceneSpec) -> list[str]:
     values = fields.get(key, list)
     for index, value in enumerate(values):
         if value == TABLE:
-            raise fields.error(f"{key}[{index}]", "the table cannot be moved, so it cannot be an object here",
-                               "Name objects of the scene; the table may be a reference (container, surface ...)")
+            raise fields.error(
+                f"{key}[{index}]",
+                "the table cannot be moved, so it cannot be an object here",
+                "Name objects of the scene; the table may be a reference (container, surface ...)",
+            )
     objects = fields.names_in(key, scene.object_names(), f"object of scene '{scene.name}'")
     if not objects:
         raise fields.error(key, "is empty", "Name at least one object of the scene")
@@ -245,11 +260,13 @@ def _read_logical(fields: Fields, count: int) -> tuple[str, int]:
     logical = fields.choice("logical", LOGICALS, "all")
     k = fields.get("k", int, 1)
     if fields.has("k") and logical != "choose":
-        raise fields.error("k", f"applies only with logical: choose (this is '{logical}')",
-                           "Leave k out, or set logical: choose")  # fmt: skip
+        raise fields.error(
+            "k", f"applies only with logical: choose (this is '{logical}')", "Leave k out, or set logical: choose"
+        )
     if logical == "choose" and not fields.has("k"):
-        raise fields.error("k", "is missing: logical choose needs the number of objects to choose",
-                           f"Add k (1 to {count})")  # fmt: skip
+        raise fields.error(
+            "k", "is missing: logical choose needs the number of objects to choose", f"Add k (1 to {count})"
+        )
     if logical == "choose" and not 1 <= k <= count:
         raise fields.error("k", f"must be between 1 and the number of objects ({count}), got {k}")
     return logical, k
@@ -263,16 +280,22 @@ def _read_groups(fields: Fields, key: str, scene: SceneSpec) -> dict[str, list[s
     result: dict[str, list[str]] = {}
     home: dict[str, str] = {}
     for container in groups.data:
-        check_name(str(container), scene.object_names(), f"container of scene '{scene.name}'",
-                   lambda problem, fix: groups.error(str(container), problem, fix))  # fmt: skip
+        check_name(
+            str(container),
+            scene.object_names(),
+            f"container of scene '{scene.name}'",
+            lambda problem, fix, container=container: groups.error(str(container), problem, fix),
+        )
         members = _read_objects(groups, container, scene)
         for index, member in enumerate(members):
             if member == container:
-                raise groups.error(f"{container}[{index}]", f"'{member}' cannot go into itself",
-                                   "Name other objects")  # fmt: skip
+                raise groups.error(f"{container}[{index}]", f"'{member}' cannot go into itself", "Name other objects")
             if member in home:
-                raise groups.error(f"{container}[{index}]", f"'{member}' is also in the group of '{home[member]}'",
-                                   "Put each object in one group")  # fmt: skip
+                raise groups.error(
+                    f"{container}[{index}]",
+                    f"'{member}' is also in the group of '{home[member]}'",
+                    "Put each object in one group",
+                )
             home[member] = container
         result[str(container)] = members
     return result
@@ -304,8 +327,12 @@ def _read_events(fields: Fields) -> dict[str, float]:
         values[key] = thresholds.number(key, low, high, default, above=above, unit=unit)
     if values["bump_distance"] >= values["move_distance"]:
         key = "move_distance" if thresholds.has("move_distance") else "bump_distance"
-        raise thresholds.error(key, f"bump_distance ({values['bump_distance']:g} m) must be less than move_distance "
-                               f"({values['move_distance']:g} m)", "Make bumping the smaller displacement")
+        raise thresholds.error(
+            key,
+            f"bump_distance ({values['bump_distance']:g} m) must be less than move_distance "
+            f"({values['move_distance']:g} m)",
+            "Make bumping the smaller displacement",
+        )
     return values
 
 
@@ -313,25 +340,43 @@ def _read_episode_seconds(fields: Fields) -> float:
     """The episode length: at least one control step, at most an hour."""
     seconds = fields.get("episode_seconds", float)
     if seconds * CONTROL_HZ < 1:
-        raise fields.error("episode_seconds", f"{seconds:g} s is shorter than one control step (1/{CONTROL_HZ} s)",
-                           "Give the episode length in seconds; tasks take tens of seconds")  # fmt: skip
+        raise fields.error(
+            "episode_seconds",
+            f"{seconds:g} s is shorter than one control step (1/{CONTROL_HZ} s)",
+            "Give the episode length in seconds; tasks take tens of seconds",
+        )
     if seconds > MAX_EPISODE_SECONDS:
-        raise fields.error("episode_seconds", f"{seconds:g} s is more than an hour",
-                           f"Give at most {MAX_EPISODE_SECONDS:g} seconds")  # fmt: skip
+        raise fields.error(
+            "episode_seconds", f"{seconds:g} s is more than an hour", f"Give at most {MAX_EPISODE_SECONDS:g} seconds"
+        )
     return seconds
 
 
 def read_task(file: Path) -> TaskSpec:
     """Read and check a task spec file."""
     fields = Fields(load_yaml(file), file)
-    fields.only(["name", "scene", "episode_seconds", "attributes", "instructions", "success", "subtasks",
-                 "contact_objects", "events"])
+    fields.only(
+        [
+            "name",
+            "scene",
+            "episode_seconds",
+            "attributes",
+            "instructions",
+            "success",
+            "subtasks",
+            "contact_objects",
+            "events",
+        ]
+    )
     name = fields.get("name", str)
     if name != file.stem:
         raise fields.error("name", f"'{name}' differs from the file name '{file.stem}'", "Make them the same")
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
-        raise fields.error("name", f"'{name}' is not usable in an environment id (RoboLab-{name}-v1)",
-                           "Use letters, digits and underscores, starting with a letter, e.g. BananaInBowl")  # fmt: skip
+        raise fields.error(
+            "name",
+            f"'{name}' is not usable in an environment id (RoboLab-{name}-v1)",
+            "Use letters, digits and underscores, starting with a letter, e.g. BananaInBowl",
+        )
     scene_field = fields.get("scene", str)
     if scene_field.endswith(".yaml"):  # a scene file next to the task file (for authoring and tests)
         scene_path = (file.parent / scene_field).resolve()
@@ -352,12 +397,16 @@ def read_task(file: Path) -> TaskSpec:
     stages = fields.get("subtasks", list, None)
     if stages == []:
         raise fields.error("subtasks", "is empty", "Give at least one stage, or leave subtasks out for the default")
-    subtasks = (tuple(_read_stage(Fields(entry, file, f"subtasks[{i}]"), scene) for i, entry in enumerate(stages))
-                if stages else default_subtasks(conditions[0]))  # fmt: skip
+    subtasks = (
+        tuple(_read_stage(Fields(entry, file, f"subtasks[{i}]"), scene) for i, entry in enumerate(stages))
+        if stages
+        else default_subtasks(conditions[0])
+    )
     contact = _read_objects(fields, "contact_objects", scene) if fields.has("contact_objects") else scene.object_names()
     event_thresholds = _read_events(fields)
-    return TaskSpec(name, scene, file, seconds, tuple(attributes), texts, conditions, subtasks,
-                    tuple(contact), event_thresholds)
+    return TaskSpec(
+        name, scene, file, seconds, tuple(attributes), texts, conditions, subtasks, tuple(contact), event_thresholds
+    )
 
 
 def task_names() -> list[str]:
@@ -380,7 +429,7 @@ def task_file(task: str | Path) -> Path:
         return path.resolve()
     name = str(task)
     if name.startswith("RoboLab-") and name.endswith("-v1"):
-        name = name[len("RoboLab-"):-len("-v1")]
+        name = name[len("RoboLab-") : -len("-v1")]
     files = content_files("tasks")
     if name not in files:
         raise UnknownNameError("task", name, files)

@@ -22,8 +22,19 @@ from robolab_ms.tasks.selection import DIFFICULTIES
 from robolab_ms.tasks.spec import AXIS_OF_ATTRIBUTE, TaskSpec, task_file
 
 REFERENCE_FILE = Path(__file__).with_name("robolab120.yaml")
-ATTRIBUTE_ORDER = ("semantics", "color", "size", "spatial", "conjunction", "counting", "affordance", "sorting",
-                   "stacking", "reorientation", "vague")  # fmt: skip
+ATTRIBUTE_ORDER = (
+    "semantics",
+    "color",
+    "size",
+    "spatial",
+    "conjunction",
+    "counting",
+    "affordance",
+    "sorting",
+    "stacking",
+    "reorientation",
+    "vague",
+)
 AXIS_ORDER = ("visual", "relational", "procedural")
 NO_ATTRIBUTE = "(no attribute)"
 FORMATS = ("text", "csv", "markdown")
@@ -82,8 +93,16 @@ class Summary:
 
 def facts_of_spec(spec: TaskSpec) -> TaskFacts:
     """The facts of one of our task specs."""
-    return TaskFacts(spec.name, spec.scene.name, spec.episode_seconds, spec.attributes, spec.num_subtasks,
-                     spec.difficulty_score, spec.difficulty, len(spec.scene.objects))  # fmt: skip
+    return TaskFacts(
+        spec.name,
+        spec.scene.name,
+        spec.episode_seconds,
+        spec.attributes,
+        spec.num_subtasks,
+        spec.difficulty_score,
+        spec.difficulty,
+        len(spec.scene.objects),
+    )
 
 
 def robolab_facts(file: Path = REFERENCE_FILE) -> list[TaskFacts]:
@@ -97,12 +116,18 @@ def robolab_facts(file: Path = REFERENCE_FILE) -> list[TaskFacts]:
         task = tasks.sub(name)
         task.only(["scene", "seconds", "attributes", "subtasks", "difficulty_score", "difficulty"])
         scene = task.name_in("scene", scene_objects.data, "scene (of scene_objects)")
-        facts.append(TaskFacts(
-            name=name, scene=scene, episode_seconds=task.positive("seconds", 3600.0, unit="s"),
-            attributes=tuple(task.names_in("attributes", AXIS_OF_ATTRIBUTE, "attribute")),
-            subtasks=task.get("subtasks", int), difficulty_score=task.get("difficulty_score", int),
-            difficulty=task.choice("difficulty", DIFFICULTIES), objects=scene_objects.get(scene, int),
-        ))  # fmt: skip
+        facts.append(
+            TaskFacts(
+                name=name,
+                scene=scene,
+                episode_seconds=task.positive("seconds", 3600.0, unit="s"),
+                attributes=tuple(task.names_in("attributes", AXIS_OF_ATTRIBUTE, "attribute")),
+                subtasks=task.get("subtasks", int),
+                difficulty_score=task.get("difficulty_score", int),
+                difficulty=task.choice("difficulty", DIFFICULTIES),
+                objects=scene_objects.get(scene, int),
+            )
+        )
     return facts
 
 
@@ -134,8 +159,13 @@ def totals(facts: Sequence[TaskFacts]) -> dict[tuple[str, str], float]:
 
 def _row_order(key: tuple[str, str]) -> tuple:
     section, item = key
-    orders = {"benchmark": ("tasks", "scenes"), "attribute": ATTRIBUTE_ORDER + (NO_ATTRIBUTE,), "axis": AXIS_ORDER,
-              "difficulty": DIFFICULTIES, "objects_per_task": ("mean", "min", "max")}  # fmt: skip
+    orders = {
+        "benchmark": ("tasks", "scenes"),
+        "attribute": ATTRIBUTE_ORDER + (NO_ATTRIBUTE,),
+        "axis": AXIS_ORDER,
+        "difficulty": DIFFICULTIES,
+        "objects_per_task": ("mean", "min", "max"),
+    }
     rank = orders[section].index(item) if section in orders else float(item)
     return (list(SECTION_TITLES).index(section), rank)
 
@@ -154,8 +184,10 @@ def task_differences(ours: Sequence[TaskFacts], theirs: Sequence[TaskFacts]) -> 
             "episode_seconds": (f"{task.episode_seconds:g}", f"{other.episode_seconds:g}"),
             "attributes": (",".join(sorted(task.attributes)), ",".join(sorted(other.attributes))),
             "subtasks": (str(task.subtasks), str(other.subtasks)),
-            "difficulty": (f"{task.difficulty} ({task.difficulty_score})",
-                           f"{other.difficulty} ({other.difficulty_score})"),  # fmt: skip
+            "difficulty": (
+                f"{task.difficulty} ({task.difficulty_score})",
+                f"{other.difficulty} ({other.difficulty_score})",
+            ),
             "objects": (str(task.objects), str(other.objects)),
         }
         found += [(task.name, key, mine, theirs_) for key, (mine, theirs_) in pairs.items() if mine != theirs_]
@@ -195,8 +227,13 @@ def summarize(ours: Sequence[TaskFacts], theirs: Sequence[TaskFacts]) -> Summary
         rows.append(TotalRow(*key, mine.get(key, absent), reference.get(key, absent)))
     our_names = {task.name for task in ours}
     their_names = {task.name for task in theirs}
-    return Summary(tuple(rows), tuple(sorted(their_names - our_names)), tuple(sorted(our_names - their_names)),
-                   len(theirs), tuple(task_differences(ours, theirs)))  # fmt: skip
+    return Summary(
+        tuple(rows),
+        tuple(sorted(their_names - our_names)),
+        tuple(sorted(our_names - their_names)),
+        len(theirs),
+        tuple(task_differences(ours, theirs)),
+    )
 
 
 def _number(value: float | None, item: str) -> str:
@@ -216,22 +253,35 @@ def _notes(summary: Summary) -> list[tuple[int, str]]:
     """The missing, extra and differing tasks, in sentences, each with its indent level (0, or 1 under another)."""
     notes = []
     if summary.missing:
-        notes.append((0, f"missing: {len(summary.missing)} of RoboLab's {summary.robolab_total} task(s) are not "
-                         f"among ours: {', '.join(summary.missing)}"))  # fmt: skip
+        notes.append(
+            (
+                0,
+                f"missing: {len(summary.missing)} of RoboLab's {summary.robolab_total} task(s) are not "
+                f"among ours: {', '.join(summary.missing)}",
+            )
+        )
     elif summary.robolab_total:
         notes.append((0, f"missing: none; all {summary.robolab_total} of RoboLab's task(s) are among ours"))
     else:
         notes.append((0, "RoboLab has no task in this selection"))
     if summary.extra:
-        notes.append((0, f"not RoboLab's: {len(summary.extra)} of our task(s), counted on our side: "
-                         f"{', '.join(summary.extra)}"))  # fmt: skip
+        notes.append(
+            (0, f"not RoboLab's: {len(summary.extra)} of our task(s), counted on our side: {', '.join(summary.extra)}")
+        )
     if summary.task_differences:
         notes.append((0, f"tasks that differ from RoboLab's ({len(summary.task_differences)} difference(s)):"))
-        notes += [(1, f"{task}: {key} ours {mine}, RoboLab's {theirs}")
-                  for task, key, mine, theirs in summary.task_differences]  # fmt: skip
+        notes += [
+            (1, f"{task}: {key} ours {mine}, RoboLab's {theirs}")
+            for task, key, mine, theirs in summary.task_differences
+        ]
     elif summary.robolab_total > len(summary.missing):
-        notes.append((0, "every task in both has RoboLab's scene, episode length, attributes, subtasks, difficulty "
-                         "and object count"))  # fmt: skip
+        notes.append(
+            (
+                0,
+                "every task in both has RoboLab's scene, episode length, attributes, subtasks, difficulty "
+                "and object count",
+            )
+        )
     return notes
 
 
@@ -241,8 +291,7 @@ def format_text(summary: Summary) -> str:
     for index, row in enumerate(summary.rows):
         if index == 0 or summary.rows[index - 1].section != row.section:
             table.append((SECTION_TITLES[row.section], "", "", ""))
-        table.append(("  " + row.item, _number(row.ours, row.item), _number(row.robolab, row.item),
-                      _difference(row)))  # fmt: skip
+        table.append(("  " + row.item, _number(row.ours, row.item), _number(row.robolab, row.item), _difference(row)))
     widths = [max(len(line[i]) for line in table) for i in range(4)]
     lines = []
     for line in table:
@@ -258,10 +307,16 @@ def format_markdown(summary: Summary) -> str:
     lines: list[str] = []
     for index, row in enumerate(summary.rows):
         if index == 0 or summary.rows[index - 1].section != row.section:
-            lines += ["", f"### {SECTION_TITLES[row.section]}", "", "| | ours | RoboLab | difference |",
-                      "|---|---:|---:|---:|"]  # fmt: skip
-        lines.append(f"| {row.item} | {_number(row.ours, row.item)} | {_number(row.robolab, row.item)} | "
-                     f"{_difference(row)} |")  # fmt: skip
+            lines += [
+                "",
+                f"### {SECTION_TITLES[row.section]}",
+                "",
+                "| | ours | RoboLab | difference |",
+                "|---|---:|---:|---:|",
+            ]
+        lines.append(
+            f"| {row.item} | {_number(row.ours, row.item)} | {_number(row.robolab, row.item)} | {_difference(row)} |"
+        )
     lines += ["", "### tasks", ""]
     lines += ["  " * level + "- " + note for level, note in _notes(summary)]
     return "\n".join(lines).lstrip("\n") + "\n"
@@ -275,8 +330,9 @@ def format_csv(summary: Summary) -> str:
     writer.writerow(["section", "item", "ours", "robolab", "difference"])
     for row in summary.rows:
         values = [row.ours, row.robolab, row.difference]
-        writer.writerow([row.section, row.item] + ["" if value is None else _number(value, row.item)
-                                                   for value in values])  # fmt: skip
+        writer.writerow(
+            [row.section, row.item] + ["" if value is None else _number(value, row.item) for value in values]
+        )
     for task in summary.missing:
         writer.writerow(["missing_task", task, 0, 1, -1])
     for task in summary.extra:

@@ -24,5 +24,14 @@ from robolab_ms.variations.base import Context, VariationError
 from robolab_ms.variations.settings import AXES, EpisodeVariation, Variations
 from robolab_ms.variations.suites import BASELINE, Suite, suite_conditions, suites
 
-__all__ = ["AXES", "BASELINE", "Context", "EpisodeVariation", "Suite", "VariationError", "Variations",
-           "suite_conditions", "suites"]  # fmt: skip
+__all__ = [
+    "AXES",
+    "BASELINE",
+    "Context",
+    "EpisodeVariation",
+    "Suite",
+    "VariationError",
+    "Variations",
+    "suite_conditions",
+    "suites",
+]

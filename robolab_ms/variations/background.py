@@ -23,9 +23,15 @@ class BackgroundAxis(Axis):
     name = "background"
     summary = "the HDR map seen behind the table and lighting the scene (with its room's floor)"
     params = (
-        Param("name", "choice", Choice(("scene",)), Choice(("all",)), "background names (assets/backgrounds.yaml)",
-              options=_backgrounds),
-    )  # fmt: skip
+        Param(
+            "name",
+            "choice",
+            Choice(("scene",)),
+            Choice(("all",)),
+            "background names (assets/backgrounds.yaml)",
+            options=_backgrounds,
+        ),
+    )
     shorthand = "name"
 
     def sample(self, ranges: dict[str, Range], seed: int, context: Context) -> dict[str, FieldValue]:
@@ -45,10 +51,16 @@ class TableAxis(Axis):
     name = "table"
     summary = "the table top's material and texture"
     params = (
-        Param("material", "choice", Choice(("scene",)), Choice(("all",)),
-              "table materials (assets/backgrounds.yaml: light_wood is RoboLab's oak, wood_planks its walnut planks, "
-              "bamboo and black_matte its other two)", options=_table_materials),
-    )  # fmt: skip
+        Param(
+            "material",
+            "choice",
+            Choice(("scene",)),
+            Choice(("all",)),
+            "table materials (assets/backgrounds.yaml: light_wood is RoboLab's oak, wood_planks its walnut planks, "
+            "bamboo and black_matte its other two)",
+            options=_table_materials,
+        ),
+    )
     shorthand = "material"
 
     def sample(self, ranges: dict[str, Range], seed: int, context: Context) -> dict[str, FieldValue]:
@@ -66,4 +78,3 @@ def scene_table_material(context: Context) -> str:
     from robolab_ms.scene.room import table_material
 
     return table_material(context.task.scene) or "scene_color"
-

@@ -125,8 +125,9 @@ class Param:
         if low > high:
             raise VariationError(f"{where}: the range {low:g}:{high:g} is empty; write LOW:HIGH with LOW <= HIGH")
         if low < self.low or high > self.high:
-            raise VariationError(f"{where}: {self.name} must stay within {self.low:g}..{self.high:g}{self.unit}, got "
-                                 f"{low:g}..{high:g}")  # fmt: skip
+            raise VariationError(
+                f"{where}: {self.name} must stay within {self.low:g}..{self.high:g}{self.unit}, got {low:g}..{high:g}"
+            )
         if self.log and low <= 0:
             raise VariationError(f"{where}: {self.name} must be above 0, got {low:g}")
         return Uniform(low, high, self.log)

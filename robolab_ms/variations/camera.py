@@ -21,8 +21,16 @@ WRIST = {"xy": 0.015, "z": 0.0, "rot": 0.05}
 def _param(group: str, key: str, value: float) -> Param:
     unit = " rad" if key == "rot" else " m"
     what = {"xy": "x and y offset", "z": "z offset", "rot": "roll, pitch and yaw offset"}[key]
-    return Param(f"{group}_{key}", "offset", Uniform(0.0, 0.0), Uniform(-value or 0.0, value),
-                 f"{group} cameras: {what}", -1.0, 1.0, unit=unit)  # fmt: skip
+    return Param(
+        f"{group}_{key}",
+        "offset",
+        Uniform(0.0, 0.0),
+        Uniform(-value or 0.0, value),
+        f"{group} cameras: {what}",
+        -1.0,
+        1.0,
+        unit=unit,
+    )
 
 
 class CameraAxis(Axis):
@@ -35,8 +43,10 @@ class CameraAxis(Axis):
     presets = {
         "external": {f"external_{key}": value for key, value in EXTERNAL.items()},
         "wrist": {f"wrist_{key}": value for key, value in WRIST.items() if value},
-        "both": {**{f"external_{k}": v for k, v in EXTERNAL.items()},
-                 **{f"wrist_{k}": v for k, v in WRIST.items() if v}},
+        "both": {
+            **{f"external_{k}": v for k, v in EXTERNAL.items()},
+            **{f"wrist_{k}": v for k, v in WRIST.items() if v},
+        },
     }
 
     def sample(self, ranges: dict[str, Range], seed: int, context: Context) -> dict[str, FieldValue]:
@@ -44,8 +54,9 @@ class CameraAxis(Axis):
         for camera in CAMERAS:
             group = "wrist" if camera == "wrist" else "external"
             keys = ("xy", "xy", "z", "rot", "rot", "rot")
-            values = [ranges[f"{group}_{key}"].draw(_stream(seed, camera, offset))
-                      for key, offset in zip(keys, OFFSETS)]  # fmt: skip
+            values = [
+                ranges[f"{group}_{key}"].draw(_stream(seed, camera, offset)) for key, offset in zip(keys, OFFSETS)
+            ]
             if camera in context.cameras:  # every camera draws, so choosing cameras changes no other camera's pose
                 fields.update({f"cam_{camera}_{offset}": round(value, 5) for offset, value in zip(OFFSETS, values)})
         return fields

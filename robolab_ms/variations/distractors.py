@@ -40,8 +40,10 @@ def distractors(context: Context, chosen: Names) -> list[str]:
         return others
     for name in chosen.names:
         if name not in others:
-            raise VariationError(f"distractors.names: '{name}' is not a distractor of {context.task.name} "
-                                 f"(its distractors: {', '.join(others) or 'none'})")  # fmt: skip
+            raise VariationError(
+                f"distractors.names: '{name}' is not a distractor of {context.task.name} "
+                f"(its distractors: {', '.join(others) or 'none'})"
+            )
     return [name for name in others if name in chosen.names]
 
 
@@ -49,12 +51,17 @@ class DistractorAxis(Axis):
     name = "distractors"
     summary = "colour and texture swaps of the objects the task does not name"
     params = (
-        Param("color", "choice", Choice(("own",)), Choice(("all",)),
-              "catalog colour names; the task objects' colours are left out", options=_colours),
-        Param("texture", "choice", Choice(("own",)), Choice(TEXTURES), "surface kinds",
-              options=lambda: list(TEXTURES)),
+        Param(
+            "color",
+            "choice",
+            Choice(("own",)),
+            Choice(("all",)),
+            "catalog colour names; the task objects' colours are left out",
+            options=_colours,
+        ),
+        Param("texture", "choice", Choice(("own",)), Choice(TEXTURES), "surface kinds", options=lambda: list(TEXTURES)),
         Param("names", "names", Names(None), Names(None), "which distractors (default: all)"),
-    )  # fmt: skip
+    )
     shorthand = None
 
     def sample(self, ranges: dict[str, Range], seed: int, context: Context) -> dict[str, FieldValue]:
@@ -81,9 +88,15 @@ def task_colours(context: Context) -> set[str]:
     from robolab_ms.catalog import COLOR_NAMES
 
     taken = {c for name in task_objects(context.task) for c in context.catalog[_asset(context, name)].colors}
-    return {name for name, rgb in COLOR_NAMES.items()
-            if any(sum((a - b) ** 2 for a, b in zip(rgb, COLOR_NAMES[other])) ** 0.5 < SIMILAR_COLOUR
-                   for other in taken if other in COLOR_NAMES)}  # fmt: skip
+    return {
+        name
+        for name, rgb in COLOR_NAMES.items()
+        if any(
+            sum((a - b) ** 2 for a, b in zip(rgb, COLOR_NAMES[other])) ** 0.5 < SIMILAR_COLOUR
+            for other in taken
+            if other in COLOR_NAMES
+        )
+    }
 
 
 def _asset(context: Context, name: str) -> str:

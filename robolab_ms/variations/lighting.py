@@ -69,17 +69,44 @@ class LightingAxis(Axis):
     name = "lighting"
     summary = "key light intensity, colour and direction, environment (dome) light, ambient light"
     params = (
-        Param("intensity", "value", Uniform(1.0, 1.0), Uniform(0.05, 3.0, log=True),
-              "factor on the key light; drawn log-uniformly", MIN_INTENSITY, MAX_INTENSITY, log=True),
-        Param("environment", "value", Uniform(1.0, 1.0), Uniform(0.25, 2.0, log=True),
-              "factor on the environment map's light; drawn levels snap to " + "/".join(map(str, ENVIRONMENT_LEVELS)),
-              MIN_INTENSITY, MAX_INTENSITY, log=True),
-        Param("color", "choice", Choice(("white",)), Choice(tuple(LIGHT_COLORS)), "key light colour",
-              options=lambda: list(LIGHT_COLORS)),
-        Param("direction", "choice", Choice(("key",)), Choice(tuple(LIGHT_DIRECTIONS)),
-              "where the key light shines from", options=lambda: list(LIGHT_DIRECTIONS)),
+        Param(
+            "intensity",
+            "value",
+            Uniform(1.0, 1.0),
+            Uniform(0.05, 3.0, log=True),
+            "factor on the key light; drawn log-uniformly",
+            MIN_INTENSITY,
+            MAX_INTENSITY,
+            log=True,
+        ),
+        Param(
+            "environment",
+            "value",
+            Uniform(1.0, 1.0),
+            Uniform(0.25, 2.0, log=True),
+            "factor on the environment map's light; drawn levels snap to " + "/".join(map(str, ENVIRONMENT_LEVELS)),
+            MIN_INTENSITY,
+            MAX_INTENSITY,
+            log=True,
+        ),
+        Param(
+            "color",
+            "choice",
+            Choice(("white",)),
+            Choice(tuple(LIGHT_COLORS)),
+            "key light colour",
+            options=lambda: list(LIGHT_COLORS),
+        ),
+        Param(
+            "direction",
+            "choice",
+            Choice(("key",)),
+            Choice(tuple(LIGHT_DIRECTIONS)),
+            "where the key light shines from",
+            options=lambda: list(LIGHT_DIRECTIONS),
+        ),
         Param("ambient", "value", Uniform(0.0, 0.0), Uniform(0.0, 0.08), "ambient light level added", 0.0, 2.0),
-    )  # fmt: skip
+    )
     shorthand = None
     presets = {
         "dim": {"intensity": 0.01, "environment": 0.1},
@@ -97,8 +124,9 @@ class LightingAxis(Axis):
         environment = ranges["environment"]
         return {
             "light_intensity": round(self.draw(ranges, seed, "intensity"), 4),
-            "light_environment": environment_level(self.draw(ranges, seed, "environment"), environment.low,
-                                                   environment.high),
+            "light_environment": environment_level(
+                self.draw(ranges, seed, "environment"), environment.low, environment.high
+            ),
             "light_color": self.draw(ranges, seed, "color"),
             "light_direction": self.draw(ranges, seed, "direction"),
             "light_ambient": round(self.draw(ranges, seed, "ambient"), 4),

@@ -13,9 +13,10 @@ class NoiseAxis(Axis):
     name = "noise"
     summary = "Gaussian image noise of the policy cameras (standard deviation in 8-bit levels)"
     params = (
-        Param("std", "value", Uniform(0.0, 0.0), Uniform(0.0, 8.0), "noise standard deviation", 0.0, 64.0,
-              unit=" levels"),
-    )  # fmt: skip
+        Param(
+            "std", "value", Uniform(0.0, 0.0), Uniform(0.0, 8.0), "noise standard deviation", 0.0, 64.0, unit=" levels"
+        ),
+    )
     shorthand = "std"
 
     def sample(self, ranges: dict[str, Range], seed: int, context: Context) -> dict[str, FieldValue]:

@@ -53,12 +53,25 @@ class ObjectPoseAxis(Axis):
     name = "objects"
     summary = "x, y and yaw offsets of objects from the scene's layout (collision-aware rejection sampling)"
     params = (
-        Param("xy", "offset", Uniform(0.0, 0.0), Uniform(-0.1, 0.1), "x and y offset from the layout", -0.5, 0.5,
-              unit=" m"),
+        Param(
+            "xy",
+            "offset",
+            Uniform(0.0, 0.0),
+            Uniform(-0.1, 0.1),
+            "x and y offset from the layout",
+            -0.5,
+            0.5,
+            unit=" m",
+        ),
         Param("yaw", "offset", Uniform(0.0, 0.0), Uniform(-0.5, 0.5), "yaw offset", -math.pi, math.pi, unit=" rad"),
-        Param("names", "names", Names(None), Names(None), "which objects (default: all); a container's contents "
-              "move with it"),
-    )  # fmt: skip
+        Param(
+            "names",
+            "names",
+            Names(None),
+            Names(None),
+            "which objects (default: all); a container's contents move with it",
+        ),
+    )
     shorthand = "xy"
     presets = {"10cm": {"xy": 0.1}, "20cm": {"xy": 0.2}, "30cm": {"xy": 0.3}}
 
@@ -67,8 +80,9 @@ class ObjectPoseAxis(Axis):
         known = context.task.scene.object_names()
         for name in chosen or ():
             if name not in known:
-                raise VariationError(f"objects.names: '{name}' is not an object of scene {context.task.scene.name} "
-                                     f"({', '.join(known)})")  # fmt: skip
+                raise VariationError(
+                    f"objects.names: '{name}' is not an object of scene {context.task.scene.name} ({', '.join(known)})"
+                )
         return {}  # drawn when the episode's state is set: the scene's own jitter must be known first
 
     def initialize(self, env: Any, env_idx: Any, ranges: dict[str, Range], fields: dict[str, FieldValue]) -> None:
@@ -128,16 +142,24 @@ def _groups(scene: Any, catalog: Any) -> list[tuple[str, ...]]:
     from robolab_ms.scene.outlines import outline_inside
 
     outlines = {p.name: footprint(catalog[p.asset], p) for p in scene.objects}
-    still = {p.name for p in scene.objects
-             if p.fixture or any(scene.placement(support).fixture for support in scene.supports(p.name))}  # fmt: skip
-    held: dict[str, str] = {p.name: scene.base(p.name) for p in scene.objects
-                            if p.on is not None and p.name not in still}  # piles  # fmt: skip
+    still = {
+        p.name
+        for p in scene.objects
+        if p.fixture or any(scene.placement(support).fixture for support in scene.supports(p.name))
+    }
+    held: dict[str, str] = {
+        p.name: scene.base(p.name) for p in scene.objects if p.on is not None and p.name not in still
+    }  # piles
     for outer in scene.objects:
         if not catalog[outer.asset].is_container:
             continue
         for inner in scene.objects:
-            if (inner.name != outer.name and inner.name not in held and inner.name not in still
-                    and not catalog[inner.asset].is_container):  # fmt: skip
+            if (
+                inner.name != outer.name
+                and inner.name not in held
+                and inner.name not in still
+                and not catalog[inner.asset].is_container
+            ):
                 if outline_inside(outlines[inner.name], outlines[outer.name], OVERLAP_TOLERANCE):
                     held[inner.name] = outer.name
     for name in list(held):  # a pile inside a container moves with the container
@@ -159,8 +181,13 @@ def _table_box(scene: Any) -> tuple[np.ndarray, np.ndarray]:
     return centre - half + MARGIN, centre + half - MARGIN
 
 
-def _place_group(group: tuple[str, ...], bodies: dict[str, _Body], rng: np.random.Generator,
-                 ranges: dict[str, Range], table: tuple[np.ndarray, np.ndarray]) -> None:  # fmt: skip
+def _place_group(
+    group: tuple[str, ...],
+    bodies: dict[str, _Body],
+    rng: np.random.Generator,
+    ranges: dict[str, Range],
+    table: tuple[np.ndarray, np.ndarray],
+) -> None:
     """Try up to RETRIES poses of `group` around its layout pose; move it to the first one that fits."""
     from robolab_ms.scene import SAFE_PLACEMENT
 
@@ -216,8 +243,11 @@ def _apply(env: Any, bodies: dict[str, _Body]) -> None:
     for name, body in bodies.items():
         actor = env.objects[name]
         q = quat_multiply(yaw_quat(body.yaw), body.placement.tilt)
-        actor.set_pose(Pose.create_from_pq(torch.tensor([[body.x, body.y, body.z]], dtype=torch.float32),
-                                           torch.tensor([q], dtype=torch.float32)))  # fmt: skip
+        actor.set_pose(
+            Pose.create_from_pq(
+                torch.tensor([[body.x, body.y, body.z]], dtype=torch.float32), torch.tensor([q], dtype=torch.float32)
+            )
+        )
         actor.set_linear_velocity(torch.zeros((1, 3)))
         actor.set_angular_velocity(torch.zeros((1, 3)))
 
@@ -227,8 +257,10 @@ def _geometric_conditions(env: Any) -> list:
     conditions = env.task_spec.success
     if not any(c.require_contact_with or c.require_gripper_detached or c.require_picked_up for c in conditions):
         return []
-    return [replace(c, require_contact_with=False, require_gripper_detached=False, require_picked_up=False)
-            for c in conditions]  # fmt: skip
+    return [
+        replace(c, require_contact_with=False, require_gripper_detached=False, require_picked_up=False)
+        for c in conditions
+    ]
 
 
 def _solved(env: Any, conditions: Any) -> bool:

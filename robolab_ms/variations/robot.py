@@ -11,14 +11,24 @@ class RobotAxis(Axis):
     name = "robot"
     summary = "offsets of the arm's initial joint positions from home"
     params = (
-        Param("joints", "offset", Uniform(0.0, 0.0), Uniform(-0.1, 0.1), "offset of each arm joint", -1.0, 1.0,
-              unit=" rad"),
-    )  # fmt: skip
+        Param(
+            "joints",
+            "offset",
+            Uniform(0.0, 0.0),
+            Uniform(-0.1, 0.1),
+            "offset of each arm joint",
+            -1.0,
+            1.0,
+            unit=" rad",
+        ),
+    )
     shorthand = "joints"
 
     def sample(self, ranges: dict[str, Range], seed: int, context: Context) -> dict[str, FieldValue]:
-        return {f"robot_joint{i + 1}_offset": round(ranges["joints"].draw(stream(seed, self.name, f"joint{i + 1}")), 5)
-                for i in range(context.arm_joints)}  # fmt: skip
+        return {
+            f"robot_joint{i + 1}_offset": round(ranges["joints"].draw(stream(seed, self.name, f"joint{i + 1}")), 5)
+            for i in range(context.arm_joints)
+        }
 
     def initialize(self, env: Any, env_idx: Any, ranges: dict[str, Range], fields: dict[str, FieldValue]) -> None:
         """Add the offsets to the arm's home joints, within the joint limits (the fields keep what was applied)."""

@@ -16,10 +16,19 @@ from robolab_ms.variations.noise import NoiseAxis
 from robolab_ms.variations.objects import ObjectPoseAxis
 from robolab_ms.variations.robot import RobotAxis
 
-AXES: dict[str, Axis] = {axis.name: axis for axis in (
-    LightingAxis(), BackgroundAxis(), TableAxis(), CameraAxis(), ObjectPoseAxis(), RobotAxis(), NoiseAxis(),
-    DistractorAxis(),
-)}  # fmt: skip
+AXES: dict[str, Axis] = {
+    axis.name: axis
+    for axis in (
+        LightingAxis(),
+        BackgroundAxis(),
+        TableAxis(),
+        CameraAxis(),
+        ObjectPoseAxis(),
+        RobotAxis(),
+        NoiseAxis(),
+        DistractorAxis(),
+    )
+}
 
 
 @dataclass(frozen=True)
@@ -90,8 +99,10 @@ def _resolve(axis: Axis, items: list[_Item]) -> dict[str, Range]:
         if axis.shorthand is None:
             presets = ", ".join(axis.presets) or "none"
             params = ", ".join(p.name for p in axis.params)
-            raise VariationError(f"--vary '{item.text}': {axis.name} takes a condition ({presets}) or parameters "
-                                 f"as {axis.name}.PARAM=VALUE ({params})")  # fmt: skip
+            raise VariationError(
+                f"--vary '{item.text}': {axis.name} takes a condition ({presets}) or parameters "
+                f"as {axis.name}.PARAM=VALUE ({params})"
+            )
         ranges[axis.shorthand] = axis.param(axis.shorthand, item.text).parse(item.value, f"--vary '{item.text}'")
     for param in axis.params:  # `all` of a choice: every option known now
         value = ranges[param.name]

@@ -30,20 +30,37 @@ def suites() -> dict[str, Suite]:
 
     looks = load_looks()
     made = [
-        Suite("lighting", "RoboLab's lighting conditions: very dim, very bright, a hard directional key light (from "
-              "the front, behind, left, right or above, drawn per episode), strong red, green and blue light, and "
-              "the environment (dome) light low and high",
-              {name: f"lighting={name}" for name in ("dim", "bright", "directional", "red", "green", "blue",
-                                                       "dome_low", "dome_high")}),
-        Suite("background", "each HDR environment map, seen behind the table and lighting the scene",
-              {name: f"background={name}" for name in looks.backgrounds}),
-        Suite("table", "each table material (light_wood = RoboLab's oak, wood_planks = its walnut planks, bamboo, "
-              "black_matte)", {name: f"table={name}" for name in looks.table_materials}),
-        Suite("camera", "camera pose offsets at RoboLab's ranges: external cameras only, the wrist camera only, both",
-              {name: f"camera={name}" for name in ("external", "wrist", "both")}),
-        Suite("objects", "object x, y offsets of up to 10, 20 and 30 cm from the layout (collision-aware)",
-              {name: f"objects={name}" for name in ("10cm", "20cm", "30cm")}),
-    ]  # fmt: skip
+        Suite(
+            "lighting",
+            "RoboLab's lighting conditions: very dim, very bright, a hard directional key light (from "
+            "the front, behind, left, right or above, drawn per episode), strong red, green and blue light, and "
+            "the environment (dome) light low and high",
+            {
+                name: f"lighting={name}"
+                for name in ("dim", "bright", "directional", "red", "green", "blue", "dome_low", "dome_high")
+            },
+        ),
+        Suite(
+            "background",
+            "each HDR environment map, seen behind the table and lighting the scene",
+            {name: f"background={name}" for name in looks.backgrounds},
+        ),
+        Suite(
+            "table",
+            "each table material (light_wood = RoboLab's oak, wood_planks = its walnut planks, bamboo, black_matte)",
+            {name: f"table={name}" for name in looks.table_materials},
+        ),
+        Suite(
+            "camera",
+            "camera pose offsets at RoboLab's ranges: external cameras only, the wrist camera only, both",
+            {name: f"camera={name}" for name in ("external", "wrist", "both")},
+        ),
+        Suite(
+            "objects",
+            "object x, y offsets of up to 10, 20 and 30 cm from the layout (collision-aware)",
+            {name: f"objects={name}" for name in ("10cm", "20cm", "30cm")},
+        ),
+    ]
     return {suite.name: Suite(suite.name, suite.description, {BASELINE: "", **suite.conditions}) for suite in made}
 
 
@@ -59,8 +76,10 @@ def suite_conditions(argument: str) -> tuple[Suite, dict[str, str]]:
     wanted = [c.strip() for c in chosen.split("/") if c.strip()]
     for condition in wanted:
         if condition not in suite.conditions:
-            raise VariationError(f"--suite {argument}: unknown condition '{condition}' of suite {name} (its "
-                                 f"conditions: {', '.join(suite.conditions)})")  # fmt: skip
+            raise VariationError(
+                f"--suite {argument}: unknown condition '{condition}' of suite {name} (its "
+                f"conditions: {', '.join(suite.conditions)})"
+            )
     return suite, {c: text for c, text in suite.conditions.items() if c in wanted}
 
 
@@ -85,12 +104,19 @@ def suite_summary(out_dir: Path, suite: Suite, conditions: list[str], policy: st
         for task, group in groups.items():
             successes = sum(r.success for r in group)
             low, high = success_interval(successes, len(group)) if group else (float("nan"), float("nan"))
-            rows.append({"suite": suite.name, "condition": condition, "settings": suite.conditions[condition],
-                         "task": task, "episodes": len(group),
-                         "success_%": round(100 * successes / len(group), 1) if group else float("nan"),
-                         "success_ci95_low_%": round(100 * low, 1), "success_ci95_high_%": round(100 * high, 1),
-                         "score": round(sum(r.score for r in group) / len(group), 3) if group else float("nan"),
-                         })  # fmt: skip
+            rows.append(
+                {
+                    "suite": suite.name,
+                    "condition": condition,
+                    "settings": suite.conditions[condition],
+                    "task": task,
+                    "episodes": len(group),
+                    "success_%": round(100 * successes / len(group), 1) if group else float("nan"),
+                    "success_ci95_low_%": round(100 * low, 1),
+                    "success_ci95_high_%": round(100 * high, 1),
+                    "score": round(sum(r.score for r in group) / len(group), 3) if group else float("nan"),
+                }
+            )
     table = pd.DataFrame(rows)
     table.to_csv(out_dir / SUITE_CSV, index=False)
     parts = [f"# Suite {suite.name} ({policy})\n", f"{suite.description}.\n", "## Success % [95 % interval]\n"]
@@ -99,8 +125,10 @@ def suite_summary(out_dir: Path, suite: Suite, conditions: list[str], policy: st
             parts.append(title)
         shown = table.copy()
         if value == "success":
-            shown["cell"] = shown.apply(lambda r: f"{r['success_%']:.0f} [{r['success_ci95_low_%']:.0f}, "
-                                        f"{r['success_ci95_high_%']:.0f}]", axis=1)  # fmt: skip
+            shown["cell"] = shown.apply(
+                lambda r: f"{r['success_%']:.0f} [{r['success_ci95_low_%']:.0f}, {r['success_ci95_high_%']:.0f}]",
+                axis=1,
+            )
         else:
             shown["cell"] = shown["score"].map(lambda v: f"{v:.2f}")
         pivot = shown.pivot(index="task", columns="condition", values="cell").reindex(columns=conditions)
