@@ -20,6 +20,7 @@ episode). Filters (`filter_episodes`) keep episodes by task, policy, attribute, 
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from collections.abc import Iterable, Sequence
@@ -140,8 +141,17 @@ def group_column(episodes: pd.DataFrame, name: str, bins: int = DEFAULT_BINS) ->
     if numeric is not None and values.nunique(dropna=True) > bins:
         return episodes.assign(**{name: equal_count_bins(numeric, bins), f"_{name}_value": numeric}), True
     if numeric is None and values.dtype == object:
-        values = values.map(lambda v: UNKNOWN if v is None or (isinstance(v, float) and math.isnan(v)) else v)
+        values = values.map(_group_label)
     return episodes.assign(**{name: values}), False
+
+
+def _group_label(value: object) -> object:
+    """A value as a group: missing ones as UNKNOWN, nested ones (policy metadata) as their JSON text."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return UNKNOWN
+    if isinstance(value, (dict, list)):
+        return json.dumps(value, sort_keys=True, default=str)
+    return value
 
 
 def equal_count_bins(values: pd.Series, bins: int) -> pd.Categorical:

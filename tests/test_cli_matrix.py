@@ -38,7 +38,7 @@ EVALS = {
     "oracle_vary": ("--policy", "oracle", "--task", *TWO, "--vary", "lighting,objects", "--episodes", "2"),
     "random_vary": ("--policy", "random", "--task", *TWO, "--vary", "lighting,objects", "--episodes", "2"),
     "recorded": ("--policy", "random", "--task", ONE, "--record-images", "--video", "--save-actions"),
-    "workers": ("--policy", "random", "--task", *TWO, "--workers", "2"),
+    "workers": ("--policy", "random", "--task", *TWO, "--workers", "2", "--record", "--vary", "lighting"),
 }  # fmt: skip
 # the fields of a result line in the first version of the results format (git history of eval/results.py)
 FIRST_VERSION_FIELDS = ("task", "instruction_variant", "instruction", "robot", "policy", "seed", "success", "score",
@@ -265,6 +265,7 @@ CASES = [
        "light_intensity>0", "--where", "task=BananaInBowl,RubiksCubeLeftOfBowl"),
     ok("analyze recorded and parallel runs", "analyze", "{recorded}", "{workers}", "--by", "task,run", "--no-plots",
        "--out", "{tmp}/analysis"),
+    ok("analyze by nested fields", "analyze", "{random_two}", "{hold_two}", "--by", "policy_metadata,endpoint"),
     ok("analyze earlier version", "analyze", "{earlier_version}", "{random_two}", "--by", "robot", "--out",
        "{tmp}/analysis", check=_first_version_tables),
     ok("analyze partial folder", "analyze", "{partial}", "--out", "{tmp}/analysis", check=_partial_tables),
@@ -308,6 +309,8 @@ CASES = [
     error("export lerobot damaged recording", "export", "lerobot", "{damaged}", "{tmp}/dataset",
           says="cannot be read as JSON"),
     checked("replay a results folder", "replay", "{recorded}"),
+    checked("replay a parallel run", "replay", "{workers}"),
+    ok("export lerobot of a parallel run", "export", "lerobot", "{workers}", "{tmp}/dataset", "--no-videos"),
     error("replay nothing recorded", "replay", "{random_two}", says="no recordings"),
     # catalog
     ok("catalog list", "catalog", "list"),
@@ -380,10 +383,13 @@ def test_command(case, folders, workspace, tmp_path):
 def test_eval_shared_folder(name, folders):
     assert_clean(folders[f"{name}:ran"], frozenset({0}))
     episodes = (folders[name] / "episodes.jsonl").read_text().splitlines()
-    tasks = EVALS[name].count(TWO[1]) + 1
-    assert len(episodes) == tasks * (2 if "--vary" in EVALS[name] else 1)
-    if name == "recorded":
-        assert list((folders[name] / "videos").rglob("*.mp4")) and list((folders[name] / "recordings").rglob("*.h5"))
+    options = EVALS[name]
+    per_task = int(options[options.index("--episodes") + 1]) if "--episodes" in options else 1
+    assert len(episodes) == (options.count(TWO[1]) + 1) * per_task
+    if "--record" in options or "--record-images" in options:
+        assert len(list((folders[name] / "recordings").rglob("*.h5"))) == len(episodes)
+    if "--video" in options:
+        assert len(list((folders[name] / "videos").rglob("*.mp4"))) == len(episodes)
 
 
 def test_scene_export_shared_file(folders):
