@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROBOLAB = str(Path(sys.executable).with_name("robolab"))
 
 
@@ -80,6 +82,7 @@ def test_eval_runs_the_droid_robot_by_default_and_names_an_unknown_one(tmp_path)
     assert result.returncode == 2 and "Did you mean 'panda'" in result.stderr, result.stderr
 
 
+@pytest.mark.slow
 def test_policy_name_files_results_under_another_name(tmp_path):
     out = tmp_path / "named"
     result = run(

@@ -1,6 +1,7 @@
 """The BananaInBowl environment: creation, determinism, stepping, cameras and success."""
 
 import numpy as np
+import pytest
 import torch
 
 
@@ -74,6 +75,7 @@ def test_banana_beside_the_bowl_is_not_success(banana_env):
     assert not info["success"].item()
 
 
+@pytest.mark.slow
 def test_a_quiet_episode_records_no_events(banana_env):
     for seed in (0, 1, 2):
         banana_env.reset(seed=seed)

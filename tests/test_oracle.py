@@ -78,6 +78,7 @@ def test_oracle_needs_the_simulator():
         make_policy("oracle").reset("", None, 0)
 
 
+@pytest.mark.slow
 def test_validate_writes_a_report_and_passes_banana_in_bowl(tmp_path, capsys):
     tasks = ["BananaInBowl", "MustardInLeftBin", "RubiksCube"]  # one of the first tasks, two of RoboLab-120 part 1
     assert main(["validate", "--task", *tasks, "--seeds", "1", "--out", str(tmp_path), "--quiet"]) == 0

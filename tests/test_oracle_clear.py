@@ -2,6 +2,7 @@
 gripper, a mug is held by the side of its wall away from the rack, and a bowl beside the rack goes onto its top."""
 
 import gymnasium as gym
+import pytest
 
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 from robolab_ms.policies import make_policy
@@ -28,6 +29,7 @@ def test_beside_the_rack_the_hand_is_the_gripper_and_the_mug_is_held_away_from_i
         env.close()
 
 
+@pytest.mark.slow
 def test_oracle_puts_a_bowl_beside_the_rack_on_its_top(tmp_path):
     """Seed 5: the descent the planner picks first passes the forearm through the rack's top board; the fallback
     joint path used to push the bowl aside before the grasp."""

@@ -153,6 +153,7 @@ def test_ray_actors_on_a_local_instance_stream_results_and_recordings_back(tmp_p
     assert not list(out.rglob("*.partial"))
 
 
+@pytest.mark.slow
 def test_a_worker_that_cannot_reach_its_policy_server_stops_the_run_with_the_one_line_error(tmp_path):
     from servers import free_port
 

@@ -29,6 +29,7 @@ def _lines(folder) -> list[dict]:
     return [json.loads(line) for line in (folder / EPISODES_FILE).read_text().splitlines()]
 
 
+@pytest.mark.slow
 def test_bad_replies_error_their_episode_and_the_run_goes_on_then_retry_errors(tmp_path):
     port = free_port()
     server = fault_server("openpi", port, FAULTS, tmp_path / "requests.jsonl")

@@ -36,6 +36,7 @@ def test_startup_hook_imports_nothing_heavy():
     assert "_robolab_ms_hook" in run_python("-c", "import sys; print(list(sys.modules))").stdout
 
 
+@pytest.mark.slow
 def test_hook_can_be_switched_off():
     code = "import mani_skill.envs, gymnasium as gym; print('RoboLab-BananaInBowl-v1' in gym.registry)"
     assert run_python("-c", code).stdout.strip() == "True"
