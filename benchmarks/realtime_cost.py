@@ -15,8 +15,6 @@ do with late observations. Printed: a markdown table.
 from __future__ import annotations
 
 import argparse
-import socket
-import subprocess
 import sys
 import tempfile
 import time
@@ -28,42 +26,9 @@ import numpy as np
 from robolab_ms.eval.results import EpisodeResult
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 from robolab_ms.policies import PolicyOptions, make_policy
+from robolab_ms.policies.server import free_port, start_serve_process
 
 TASKS = ("BananaInBowl", "PickUpGreenObject", "RubiksCubeLeftOfBowl")
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
-def start_server(recorded: Path, port: int, delay_ms: float) -> subprocess.Popen:
-    server = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robolab_ms.cli",
-            "serve",
-            "--policy",
-            "replay",
-            "--replay-from",
-            str(recorded),
-            "--delay-ms",
-            f"{delay_ms:g}",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            str(port),
-        ],
-        stdout=subprocess.PIPE,
-        text=True,
-    )
-    while "robolab serve:" not in (server.stdout.readline() or "robolab serve:"):
-        pass
-    if server.poll() is not None:
-        raise SystemExit("robolab serve did not start")
-    return server
 
 
 def row(name: str, results: list[EpisodeResult]) -> str:
@@ -111,7 +76,9 @@ def main() -> None:
         modes += [(f"real time, {delay:g} ms", delay, True) for delay in args.delay_ms]
         for mode, delay, realtime in modes:
             port = free_port()
-            server = start_server(out / "oracle", port, delay)
+            server = start_serve_process(
+                ["--policy", "replay", "--replay-from", str(out / "oracle"), "--delay-ms", f"{delay:g}"], port
+            )
             try:
                 options = PolicyOptions(port=port, realtime=realtime)
                 runs[mode] = run_evaluation(

@@ -12,9 +12,6 @@ most 1.10).
 from __future__ import annotations
 
 import argparse
-import socket
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -23,36 +20,7 @@ import numpy as np
 
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 from robolab_ms.policies import PolicyOptions, make_policy
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
-def start_server(port: int) -> subprocess.Popen:
-    server = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "robolab_ms.cli",
-            "serve",
-            "--policy",
-            "hold",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            str(port),
-        ],
-        stdout=subprocess.PIPE,
-        text=True,
-    )
-    while "robolab serve:" not in (server.stdout.readline() or "robolab serve:"):
-        pass
-    if server.poll() is not None:
-        raise SystemExit("robolab serve did not start")
-    return server
+from robolab_ms.policies.server import free_port, start_serve_process
 
 
 def measure(policy_name: str, options: PolicyOptions, steps: int, seed: int, out: Path) -> dict[str, float]:
@@ -81,7 +49,7 @@ def main() -> None:
         args.steps, args.rounds = 8, 1
 
     port = free_port()
-    server = start_server(port)
+    server = start_serve_process(["--policy", "hold"], port)
     remote_options = PolicyOptions(port=port, open_loop_horizon=8)
     rows: dict[str, list[dict[str, float]]] = {"in process": [], "robolab serve + openpi": []}
     try:

@@ -21,9 +21,12 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import socket
+import subprocess
+import sys
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -272,3 +275,25 @@ def serve(
         _serve_gr00t(factory, host, port, action_horizon, ready, log_requests, delay)
     else:
         raise ValueError(f"unknown protocol {protocol!r}")
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    """A TCP port that is free on `host` now (for a server started next)."""
+    with socket.socket() as sock:
+        sock.bind((host, 0))
+        return sock.getsockname()[1]
+
+
+def start_serve_process(policy_args: Sequence[str], port: int, host: str = "127.0.0.1") -> subprocess.Popen:
+    """`robolab serve` with `policy_args` (e.g. ["--policy", "hold"]) in a process of its own, returned once it
+    listens on host:port; SystemExit if it ended before that."""
+    server = subprocess.Popen(
+        [sys.executable, "-m", "robolab_ms.cli", "serve", *policy_args, "--host", host, "--port", str(port)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    while "robolab serve:" not in (server.stdout.readline() or "robolab serve:"):
+        pass
+    if server.poll() is not None:
+        raise SystemExit("robolab serve did not start")
+    return server
