@@ -646,7 +646,7 @@ GRASP_CLEARANCE = 0.005  # m: an object "fits" the open gripper with at least th
 
 
 def _cmd_catalog_list(args: argparse.Namespace) -> int:
-    from robolab_ms.catalog import DROID_GRIPPER_OPENING as GRIPPER_OPENING
+    from robolab_ms.agents.droid_model import RATED_OPENING as GRIPPER_OPENING
     from robolab_ms.catalog import narrowest_width
 
     catalog = _catalog_of(args)

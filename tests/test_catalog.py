@@ -171,8 +171,8 @@ def test_contact_sheet_in_docs_exists():
 def test_lizard_figurine_is_robolab_sized_with_a_body_the_open_gripper_spans():
     """RoboLab's lizard figurine is 24 x 14 x 13.5 cm; ours has that bounding box, stands on the table, and
     across its body, between its legs, it is narrower than the open fingers (8.6 cm), as a lizard is."""
+    from robolab_ms.agents.droid_model import OPEN_PAD_GAP as OPEN_FINGER_GAP
     from robolab_ms.catalog.procedural import lizard
-    from robolab_ms.policies.oracle import OPEN_FINGER_GAP
 
     parts = lizard(length=0.24, width=0.14, height=0.135)
     points = np.concatenate([part.surface_points() for part in parts])

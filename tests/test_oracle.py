@@ -40,13 +40,15 @@ def test_oracle_holds_a_mug_too_wide_for_the_fingers_by_its_wall(tmp_path):
     import gymnasium as gym
     import numpy as np
 
-    from robolab_ms.policies.oracle import OPEN_FINGER_GAP, _world_points, grasp_pose
+    from robolab_ms.policies.oracle.grasps import grasp_pose
+    from robolab_ms.policies.oracle.gripper import OPEN_FINGER_GAP
+    from robolab_ms.policies.oracle.world import world_points
     from robolab_ms.tasks.spec import load_task
 
     env = gym.make(load_task("RedDishesInBin").env_id, obs_mode="state_dict")
     try:
         env.reset(seed=0)
-        points = _world_points(env.unwrapped, "mug")
+        points = world_points(env.unwrapped, "mug")
         rim = points[points[:, 2] > points[:, 2].max() - 0.01]
         centre = (rim[:, :2].max(axis=0) + rim[:, :2].min(axis=0)) / 2
         radius = np.linalg.norm(rim[:, :2] - centre, axis=1).max()
@@ -168,23 +170,23 @@ def test_oracle_takes_objects_out_of_a_bin_to_separate_free_spots(tmp_path):
     assert results[0].error is None and results[0].success, results[0]
 
 
-def test_a_grasp_above_a_flat_part_is_not_too_wide():
+def test_a_grasp_above_a_flat_part_is_nottoo_wide():
     """A spoon lying flat is grasped with the TCP above its top (the closed pads reach below the TCP): nothing of it
     is at or above the grasp height, and that is no reason for a wall grasp."""
     import numpy as np
 
-    from robolab_ms.policies.oracle import _too_wide
+    from robolab_ms.policies.oracle.grasps import too_wide
 
     spoon = np.array([[0.0, 0.0, 0.0], [0.15, 0.03, 0.0], [0.0, 0.03, 0.012], [0.15, 0.0, 0.012]])
-    assert not _too_wide(spoon, np.array([0.0, 1.0]), z=0.03)
-    assert _too_wide(spoon, np.array([1.0, 0.0]), z=0.005)  # along its 15-cm length
+    assert not too_wide(spoon, np.array([0.0, 1.0]), z=0.03)
+    assert too_wide(spoon, np.array([1.0, 0.0]), z=0.005)  # along its 15-cm length
 
 
 def test_oracle_stands_a_lying_jug_up_by_its_neck(tmp_path):
     """The blue jug (0.8 kg, 12 cm square) lies on its side: too wide to hold across its body, it is held by its
     neck from above and tipped up about its base."""
     from robolab_ms.envs import RoboLabEnv
-    from robolab_ms.policies.oracle_reorient import end_grasp
+    from robolab_ms.policies.oracle.grasps import end_grasp
 
     env = RoboLabEnv(task="ReorientJug", obs_mode="state_dict", render_backend="cpu")
     env.reset(seed=0)
@@ -219,7 +221,9 @@ def test_shelf_cover_and_the_spot_beside_the_shelf():
     millimetres under a post and the boards, is not. A mug taken off the level goes down on the table in front of
     the rack (the robot's side), past the board's edge, and not on the rack's footprint."""
     from robolab_ms.envs import RoboLabEnv
-    from robolab_ms.policies.oracle import _world_points, covered, jobs_for, shelf_exit_spot
+    from robolab_ms.policies.oracle import jobs_for
+    from robolab_ms.policies.oracle.places import shelf_exit_spot
+    from robolab_ms.policies.oracle.world import covered, world_points
 
     for task, shelved in (("TakeMugsOffOfShelf", {"ceramic_mug", "mug"}), ("PutBowlOnShelfTop", set())):
         env = RoboLabEnv(task=task, obs_mode="state_dict", render_backend="cpu")
@@ -228,7 +232,7 @@ def test_shelf_cover_and_the_spot_beside_the_shelf():
             env.eval_context.refresh()
             assert {name for name in ("ceramic_mug", "mug", "serving_bowl") if covered(env, name)} == shelved
             if shelved:
-                rack = _world_points(env, "rack_l04")
+                rack = world_points(env, "rack_l04")
                 low, high = rack[:, :2].min(axis=0), rack[:, :2].max(axis=0)
                 for name in shelved:
                     x, y = shelf_exit_spot(env, name)
@@ -245,7 +249,8 @@ def test_a_square_box_turned_diagonally_is_closed_on_across_its_faces():
     closing across its diagonal (9.9 cm) would not fit the open fingers: the fingers close across its faces."""
     import numpy as np
 
-    from robolab_ms.policies.oracle import MAX_GRASP_WIDTH, _fitting_direction
+    from robolab_ms.policies.oracle.grasps import fitting_direction
+    from robolab_ms.policies.oracle.gripper import MAX_GRASP_WIDTH
 
     half, turn = 0.035, np.radians(45.0)
     corners = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (0.0, 0.2)])
@@ -253,11 +258,11 @@ def test_a_square_box_turned_diagonally_is_closed_on_across_its_faces():
     carton = corners @ rotation.T
     diagonal = np.array([1.0, 0.0])
     assert np.ptp(carton[:, :2] @ diagonal) > MAX_GRASP_WIDTH
-    chosen = _fitting_direction(carton, diagonal)
+    chosen = fitting_direction(carton, diagonal)
     assert np.ptp(carton[:, :2] @ chosen) == pytest.approx(2 * half, abs=0.002)
     narrow = np.array([0.0, 0.02, 0.0])  # a part that fits as it is keeps its direction
     assert np.array_equal(
-        _fitting_direction(corners[:, :] * [1.0, 0.2, 1.0] + narrow, np.array([0.0, 1.0])), np.array([0.0, 1.0])
+        fitting_direction(corners[:, :] * [1.0, 0.2, 1.0] + narrow, np.array([0.0, 1.0])), np.array([0.0, 1.0])
     )
 
 
@@ -268,8 +273,8 @@ def test_oracle_comes_in_under_an_overhang_and_holds_a_cup_by_its_handle(tmp_pat
     import gymnasium as gym
     import numpy as np
 
-    from robolab_ms.policies.oracle import _world_points, grasp_pose
-    from robolab_ms.policies.oracle_overhang import side_step_path
+    from robolab_ms.policies.oracle.grasps import grasp_pose, side_step_path
+    from robolab_ms.policies.oracle.world import world_points
     from robolab_ms.tasks.spec import load_task
 
     def grasp_off_middle(task: str, seed: int, name: str) -> tuple[float, bool]:
@@ -278,7 +283,7 @@ def test_oracle_comes_in_under_an_overhang_and_holds_a_cup_by_its_handle(tmp_pat
         env = gym.make(load_task(task).env_id, obs_mode="state_dict")
         try:
             env.reset(seed=seed)
-            points = _world_points(env.unwrapped, name)
+            points = world_points(env.unwrapped, name)
             centre = (points.max(axis=0) + points.min(axis=0)) / 2
             grasp = grasp_pose(env.unwrapped, name)
             return float(np.linalg.norm(grasp[:2] - centre[:2])), side_step_path(env.unwrapped, name, grasp) is not None
@@ -320,7 +325,7 @@ def test_oracle_plans_a_job_again_when_its_object_slips_out_of_the_hand():
             if bool(terminated[0]):
                 break
         assert slipped and bool(info["success"][0])
-        assert oracle._retries == {"banana": 1}
+        assert oracle.retries == {"banana": 1}
     finally:
         env.close()
 
@@ -334,8 +339,9 @@ def test_a_ladle_is_held_by_the_handle_beside_its_bowl_and_let_go_bowl_first_ove
     import numpy as np
 
     from robolab_ms.catalog.procedural import quat_to_matrix
-    from robolab_ms.policies.oracle import _footprint_points, _mass_centre, _world_points, grasp_pose, object_bottom
-    from robolab_ms.policies.oracle_balance import BALANCE_NARROW, head_first_place, heavy_end
+    from robolab_ms.policies.oracle.grasps import BALANCE_NARROW, grasp_pose, heavy_end
+    from robolab_ms.policies.oracle.places import head_first_place
+    from robolab_ms.policies.oracle.world import footprint_points, mass_centre, object_bottom, world_points
     from robolab_ms.tasks.spec import load_task
 
     env = gym.make(load_task("SpoonsInPot").env_id, obs_mode="state_dict")
@@ -345,10 +351,10 @@ def test_a_ladle_is_held_by_the_handle_beside_its_bowl_and_let_go_bowl_first_ove
         assert heavy_end(base, "red_serving_spoon") is None  # a light spoon: held as before
         for name in ("ladle", "ladle_01"):
             grasp = grasp_pose(base, name)
-            mass_centre, _, towards = heavy_end(base, name)
-            offset = grasp[:2] - mass_centre[:2]
+            centre_of_mass, _, towards = heavy_end(base, name)
+            offset = grasp[:2] - centre_of_mass[:2]
             assert 0.015 < float(offset @ towards) < 0.05  # on the handle side, near the balance point
-            points = _footprint_points(base, name, _world_points(base, name))  # its top, mapped by rays
+            points = footprint_points(base, name, world_points(base, name))  # its top, mapped by rays
             closing = np.array([-towards[1], towards[0]])
             slab = points[np.abs((points[:, :2] - grasp[:2]) @ towards) < 0.01]
             assert float(np.ptp(slab[:, :2] @ closing)) < BALANCE_NARROW  # the pads close on the handle
@@ -356,13 +362,13 @@ def test_a_ladle_is_held_by_the_handle_beside_its_bowl_and_let_go_bowl_first_ove
         grasp = grasp_pose(base, "ladle")
         held_bottom = grasp[2] - object_bottom(base, "ladle")
         place, over = head_first_place(base, "ladle", "anza_medium", grasp, held_bottom, lambda over, pose: True)
-        pot = _world_points(base, "anza_medium")
+        pot = world_points(base, "anza_medium")
         centre = (pot[:, :2].max(axis=0) + pot[:, :2].min(axis=0)) / 2
         radius = float(np.ptp(pot[:, :2], axis=0).min()) / 2  # the rim (the grips stick out along one side)
         world_spin = quat_to_matrix(place[3:]) @ np.linalg.inv(quat_to_matrix(grasp[3:]))  # the hand's turn
         assert abs(world_spin[2, 2] - 1.0) < 1e-6  # about the vertical only: the ladle stays level
-        mass_at = place[:2] + world_spin[:2, :2] @ (_mass_centre(base, "ladle")[:2] - grasp[:2])
-        middle = (_world_points(base, "ladle").max(axis=0) + _world_points(base, "ladle").min(axis=0))[:2] / 2
+        mass_at = place[:2] + world_spin[:2, :2] @ (mass_centre(base, "ladle")[:2] - grasp[:2])
+        middle = (world_points(base, "ladle").max(axis=0) + world_points(base, "ladle").min(axis=0))[:2] / 2
         middle_at = place[:2] + world_spin[:2, :2] @ (middle - grasp[:2])
         assert np.linalg.norm(mass_at - centre) < radius - 0.03 and np.linalg.norm(middle_at - centre) < radius
         assert place[2] > pot[:, 2].max() and over[2] >= place[2]
@@ -378,19 +384,20 @@ def test_a_fork_beside_a_plate_is_grasped_where_the_closing_pads_miss_the_plate(
     import numpy as np
 
     from robolab_ms.catalog.procedural import quat_to_matrix
-    from robolab_ms.policies.oracle import LONG_MAX_TURN, _obstacle_heights, _world_points, grasp_pose
-    from robolab_ms.policies.oracle_pads import pads_snag
+    from robolab_ms.policies.oracle.grasps import LONG_MAX_TURN, grasp_pose
+    from robolab_ms.policies.oracle.scoring import pads_snag
+    from robolab_ms.policies.oracle.world import obstacle_heights, world_points
     from robolab_ms.tasks.spec import load_task
 
     env = gym.make(load_task("UtensilsInMug").env_id, obs_mode="state_dict")
     try:
         env.reset(seed=1)
         base = env.unwrapped
-        points = _world_points(base, "fork_big")
+        points = world_points(base, "fork_big")
         middle = (points.max(axis=0) + points.min(axis=0)) / 2
         xy = points[:, :2] - points[:, :2].mean(axis=0)
         across = np.linalg.eigh(xy.T @ xy)[1][:, 0]
-        heights = _obstacle_heights(base, "fork_big", middle[:2])
+        heights = obstacle_heights(base, "fork_big", middle[:2])
         assert pads_snag(heights, middle[:2], across, 0.026, 0.025)  # across the middle: onto the plate
         grasp = grasp_pose(base, "fork_big")
         closing = quat_to_matrix(grasp[3:])[:2, 1]
@@ -406,8 +413,9 @@ def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path)
     fingers with room, and FoodPacking2Cans (a seed where the can used to stay in the hand) is solved."""
     import numpy as np
 
-    from robolab_ms.policies.oracle import FINGER_HALF_WIDTH, MAX_GRASP_WIDTH, _world_points, grasp_pose
-    from robolab_ms.policies.oracle_chord import round_section
+    from robolab_ms.policies.oracle.grasps import grasp_pose, round_section
+    from robolab_ms.policies.oracle.gripper import FINGER_HALF_WIDTH, MAX_GRASP_WIDTH
+    from robolab_ms.policies.oracle.world import world_points
 
     results = run_evaluation(
         make_policy("oracle"),
@@ -424,7 +432,7 @@ def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path)
         env.reset(seed=2)
         base = env.unwrapped
         base.eval_context.refresh()
-        points = _world_points(base, "tuna_can")
+        points = world_points(base, "tuna_can")
         assert round_section(points)
         grasp = grasp_pose(base, "tuna_can")
         centre = (points.max(axis=0) + points.min(axis=0)) / 2
@@ -473,8 +481,9 @@ def test_a_wooden_spoon_beside_oranges_is_grasped_with_its_handle_between_the_pa
     import gymnasium as gym
 
     from robolab_ms.catalog.procedural import quat_to_matrix
-    from robolab_ms.policies.oracle import OPEN_FINGER_GAP, _footprint_points, _world_points, grasp_pose
-    from robolab_ms.policies.oracle_centred import band_offset
+    from robolab_ms.policies.oracle.grasps import band_offset, grasp_pose
+    from robolab_ms.policies.oracle.gripper import OPEN_FINGER_GAP
+    from robolab_ms.policies.oracle.world import footprint_points, world_points
     from robolab_ms.tasks.spec import load_task
 
     env = gym.make(load_task("WoodSpatulaToBowl").env_id, obs_mode="state_dict")
@@ -482,7 +491,7 @@ def test_a_wooden_spoon_beside_oranges_is_grasped_with_its_handle_between_the_pa
         env.reset(seed=2)
         spoon = env.unwrapped
         grasp = grasp_pose(spoon, "wooden_spoons")
-        seen = _footprint_points(spoon, "wooden_spoons", _world_points(spoon, "wooden_spoons"))
+        seen = footprint_points(spoon, "wooden_spoons", world_points(spoon, "wooden_spoons"))
         offset, width = band_offset(seen, grasp[:2], quat_to_matrix(grasp[3:])[:2, 1])
         assert abs(offset) < 0.01 and abs(offset) + width / 2 < OPEN_FINGER_GAP / 2
     finally:

@@ -1,4 +1,4 @@
-"""The oracle beside a shelf (robolab_ms/policies/oracle_clear.py): the hand is checked against the rack as the real
+"""The oracle beside a shelf (policies/oracle/motion.py): the hand is checked against the rack as the real
 gripper, a mug is held by the side of its wall away from the rack, and a bowl beside the rack goes onto its top."""
 
 import gymnasium as gym
@@ -6,7 +6,8 @@ import pytest
 
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 from robolab_ms.policies import make_policy
-from robolab_ms.policies.oracle import _centre, grasp_pose
+from robolab_ms.policies.oracle.grasps import grasp_pose
+from robolab_ms.policies.oracle.world import centre
 from robolab_ms.tasks.spec import load_task
 
 
@@ -18,11 +19,11 @@ def test_beside_the_rack_the_hand_is_the_gripper_and_the_mug_is_held_away_from_i
         oracle = make_policy("oracle")
         oracle.bind(env)
         oracle.reset(base.instruction, base.single_action_space, 7)
-        home = oracle._planner_qpos()
-        touching = {hit.link_name1 for hit in oracle._planner.check_for_env_collision(qpos=home)}
+        home = oracle.motion.current_qpos()
+        touching = {hit.link_name1 for hit in oracle.motion.planner.check_for_env_collision(qpos=home)}
         assert touching == {"panda_hand"}  # the planner's Panda hand at the start posture reaches the top board ...
-        assert not oracle._collides(home)  # ... the droid's gripper there does not
-        mug, rack = _centre(base, "mug")[:2], _centre(base, "rack_l04")[:2]
+        assert not oracle.motion.collides(home)  # ... the droid's gripper there does not
+        mug, rack = centre(base, "mug")[:2], centre(base, "rack_l04")[:2]
         grasp = grasp_pose(base, "mug")
         assert float((grasp[:2] - mug) @ (rack - mug)) < 0.0  # the wall on the far side from the rack
     finally:

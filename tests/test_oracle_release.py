@@ -1,9 +1,8 @@
-"""Where the oracle releases an object at the edge of its reach over a large bin (policies/oracle_release.py)."""
+"""Where the oracle releases an object at the edge of its reach over a large bin (policies/oracle/places.py)."""
 
 import numpy as np
 
-from robolab_ms.policies.oracle import PLACE_REACH_MARGIN
-from robolab_ms.policies.oracle_release import backed_off
+from robolab_ms.policies.oracle.places import PLACE_REACH_MARGIN, backed_off
 
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])  # a top-down TCP (w, x, y, z): 180 degrees about x
 
@@ -42,7 +41,9 @@ def test_the_fallback_release_over_a_bin_clears_what_already_sticks_out_of_it():
     over the bin's rim in workdesk_bin, not at the rim's height where it would push into it."""
     import gymnasium as gym
 
-    from robolab_ms.policies.oracle import Job, _world_points, grasp_pose, object_bottom, place_pose
+    from robolab_ms.policies.oracle.grasps import grasp_pose
+    from robolab_ms.policies.oracle.places import place_pose
+    from robolab_ms.policies.oracle.world import object_bottom, world_points
     from robolab_ms.tasks.spec import load_task
 
     env = gym.make(load_task("BlackItemsInBin").env_id, obs_mode="state_dict")
@@ -50,12 +51,12 @@ def test_the_fallback_release_over_a_bin_clears_what_already_sticks_out_of_it():
         env.reset(seed=0)
         base = env.unwrapped
         base.eval_context.refresh()
-        keyboard_top = float(_world_points(base, "keyboard")[:, 2].max())
-        rim = float(_world_points(base, "grey_bin")[:, 2].max())
+        keyboard_top = float(world_points(base, "keyboard")[:, 2].max())
+        rim = float(world_points(base, "grey_bin")[:, 2].max())
         assert keyboard_top > rim + 0.05  # it sticks out well over the rim
         grasp = grasp_pose(base, "glasses")
         held_bottom = grasp[2] - object_bottom(base, "glasses")
-        place, _ = place_pose(base, Job("glasses", onto="grey_bin"), grasp, held_bottom, np.zeros(2))
+        place, _ = place_pose(base, "glasses", "grey_bin", None, grasp, held_bottom, np.zeros(2))
         assert place[2] - held_bottom > keyboard_top  # the glasses' bottom is let go above the keyboard
     finally:
         env.close()

@@ -1,4 +1,4 @@
-"""The oracle's holds of heavy tools (policies/oracle_tools.py) on the drill standing in a bin of ToolsPickingDrill:
+"""The oracle's holds of heavy tools (policies/oracle: grasps.higher_hold, skills.far_tool) on the drill standing in a bin of ToolsPickingDrill:
 held across its body above the battery (its widest part, walled in by the bin), and, where it stands at the edge of
 the arm's reach, reached from lower down and drawn nearer before it is lifted out."""
 
@@ -8,8 +8,9 @@ import numpy as np
 from robolab_ms.catalog.procedural import quat_to_matrix
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 from robolab_ms.policies import make_policy
-from robolab_ms.policies.oracle import GRASP_DEPTH, _world_points, grasp_pose
-from robolab_ms.policies.oracle_tools import far_tool
+from robolab_ms.policies.oracle.grasps import GRASP_DEPTH, grasp_pose
+from robolab_ms.policies.oracle.skills import far_tool
+from robolab_ms.policies.oracle.world import world_points
 from robolab_ms.tasks.spec import load_task
 
 
@@ -19,7 +20,7 @@ def test_a_drill_in_a_bin_is_held_across_its_body_above_the_bins_rim():
         env.reset(seed=0)
         base = env.unwrapped
         grasp = grasp_pose(base, "cordless_drill")
-        drill, bin_points = _world_points(base, "cordless_drill"), _world_points(base, "right_bin")
+        drill, bin_points = world_points(base, "cordless_drill"), world_points(base, "right_bin")
         length_axis = quat_to_matrix(base.objects["cordless_drill"].pose.raw_pose[0, 3:].cpu().numpy())[:2, 0]
         closing = quat_to_matrix(grasp[3:])[:2, 1]
         assert abs(float(closing @ length_axis)) < np.sin(np.radians(20))  # across the body, not along it

@@ -47,6 +47,9 @@ COUPLING_RADIUS = 0.0375
 # Panda hand's fingers do at the same joint angles: at DROID's home pose they close along the world y axis.
 GRIPPER_YAW = math.pi / 2
 TCP_DEPTH = 0.143  # m from the gripper base along its axis: between the finger pads when they touch an object
+OPEN_PAD_GAP = 0.086  # m between the finger pads of the open 2F-85 model (the oracle's hand geometry reads this)
+RATED_OPENING_MARGIN = 0.001  # m the real 2F-85's rated 85-mm stroke is narrower than the model's open pads ...
+RATED_OPENING = OPEN_PAD_GAP - RATED_OPENING_MARGIN  # ... the opening the catalog's "fits" column measures against
 
 ROBOTIQ_URDF = "grippers/robotiq_2f_85/urdf/robotiq_2f_85.urdf"
 INSTALL_HINT = "install the pinned dependencies: .venv/bin/pip install -r requirements.lock"

@@ -7,7 +7,6 @@ sheet in `.check`, `robolab catalog add` in `.add`.
 
 from robolab_ms.catalog.schema import (
     COLOR_NAMES,
-    DROID_GRIPPER_OPENING,
     OBJECT_CLASSES,
     Catalog,
     CatalogObject,
@@ -19,7 +18,6 @@ from robolab_ms.catalog.schema import (
 
 __all__ = [
     "COLOR_NAMES",
-    "DROID_GRIPPER_OPENING",
     "OBJECT_CLASSES",
     "Catalog",
     "CatalogObject",

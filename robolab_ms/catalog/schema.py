@@ -603,9 +603,6 @@ def _joined_catalogs(files: tuple[tuple[Path, tuple[int, int]], ...]) -> Catalog
     return Catalog(objects, catalogs[0].file)
 
 
-DROID_GRIPPER_OPENING = 0.085  # m between the finger pads of DROID's open Robotiq 2F-85 (the model's: 86 mm)
-
-
 def narrowest_width(entry: CatalogObject) -> float:
     """An object's narrowest horizontal width as the catalog stands it (m): the opening a gripper closing across the
     whole object from above needs. A thin part (a handle, a rim, a wall) may be narrower."""

@@ -1,0 +1,492 @@
+"""The oracle's motion planner: inverse kinematics and collision-checked joint paths for the arm, queued as the
+8-D DROID actions a learned policy sends (7 absolute joint targets and the gripper, 0 open, 1 closed, at the
+control rate).
+
+Moves are straight lines of the TCP through inverse-kinematics waypoints a centimetre apart where they can be
+(`plan_straight`), mplib's screw motion at the edge of the workspace, and a straight line in joint space or
+RRT-Connect to an inverse-kinematics goal otherwise (`move`). The fixtures (shelves) are boxes in the planner's
+world; against them the hand is checked as the real gripper's solids (`gripper.HAND_SOLIDS`), not as the
+planner's wider Panda hand. On the way to a grasp the hand passes over what stands near its way (`reach_over`),
+and beside a fixture it comes to an arm posture from which the straight descent is free (`reach_over_clear`).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from robolab_ms.agents.droid_model import ARM_JOINTS, FLANGE_LINK
+from robolab_ms.policies.oracle.clearance import (
+    APPROACH_HEIGHT,
+    TRAVEL_CLEARANCE,
+    TRAVEL_RADIUS,
+    pass_height,
+    sag_height,
+)
+from robolab_ms.policies.oracle.failure import OracleFailure
+from robolab_ms.policies.oracle.geometry import matrix_to_quaternion
+from robolab_ms.policies.oracle.gripper import FINGERTIP_BELOW_TCP, hand_clear
+from robolab_ms.policies.oracle.world import fixture_boxes, world_points
+
+if TYPE_CHECKING:
+    from robolab_ms.envs.robolab_env import RoboLabEnv
+
+GRIPPER_STEPS = 8  # control steps to close or open the gripper (about half a second)
+SETTLE_STEPS = 3  # control steps held at the end of every move, for the PD controller to catch up
+IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
+PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
+PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
+JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-collision along a joint path
+STRAIGHT_STEP = 0.01  # m between the waypoints of a straight move, each solved by inverse kinematics ...
+STRAIGHT_TURN = 0.05  # ... or rad of turn between them
+MAX_JOINT_JUMP = 0.25  # rad a joint may change between two waypoints of a straight move (more: a flip, not a line)
+SAMPLED_PLANNING_TIME = 2.0  # s RRT-Connect may take where no straight line in joint space is free
+OPEN_FINGER_QPOS = 0.04  # the planning model's finger joints, kept open
+PLANNER_HAND_LINKS = ("panda_hand", "panda_leftfinger", "panda_rightfinger", "panda_hand_tcp")  # the planner's
+# Panda hand, wider than the droid's gripper: against the fixtures the hand is checked as the gripper's solids instead
+POSTURE_STARTS = 200  # random starts of inverse kinematics when looking for a posture with a clear descent
+NEUTRAL_POSTURE = (0.0, np.pi / 8, 0.0, -5 * np.pi / 8, 0.0, 3 * np.pi / 4, np.pi / 4)  # the Panda's rest joints
+FIXTURE_MARGIN = 0.02  # m the fixtures grow by while a posture and the way down from it are chosen (the arm lags
+# its targets by a centimetre or two on a fast descent)
+LOWER_STEP = 0.05  # m between the lower heights over the grasp tried where no posture at the planned one has one
+
+Plan = dict[str, Any]  # mplib's result: "status", and "position" (rows of 7 arm joints) on success
+
+
+def seed_inverse_kinematics(seed: int) -> None:
+    """Seed the C library's generator, from which the planner's inverse kinematics draws its random starts, so the
+    oracle's plans depend on the episode seed only."""
+    import ctypes
+
+    ctypes.CDLL(None).srand(ctypes.c_uint(seed & 0xFFFFFFFF))
+
+
+def make_planner(env: RoboLabEnv):
+    """An mplib planner for the robot's arm. Every supported robot has a Panda arm, so the planner uses ManiSkill's
+    Panda model (with its collision pairs) and moves the flange, panda_link8; the hand on the flange differs per
+    robot and is accounted for by the flange-to-TCP transform read from the robot (see `MotionPlanner.bind`)."""
+    import mplib
+    from mani_skill import PACKAGE_ASSET_DIR
+
+    if tuple(env.robot.arm_joints) != ARM_JOINTS:
+        raise OracleFailure(f"the oracle plans for Panda arms (droid, panda); robot '{env.robot_uids}' has another arm")
+    model = Path(PACKAGE_ASSET_DIR) / "robots" / "panda" / "panda_v2.urdf"
+    return mplib.Planner(
+        urdf=str(model),
+        srdf=str(model.with_suffix(".srdf")),
+        move_group=FLANGE_LINK,
+        joint_vel_limits=np.full(7, PLANNING_JOINT_SPEED),
+        joint_acc_limits=np.full(7, PLANNING_JOINT_ACCELERATION),
+    )
+
+
+class MotionPlanner:
+    """Plans the arm's moves for one robot and queues them as actions (`actions`), with the gripper command of
+    the moment (`gripper`). Postures are planning-model joint vectors: the 7 arm joints, then the 2 fingers."""
+
+    def __init__(self, env: RoboLabEnv) -> None:
+        self.planner = make_planner(env)
+        self.robot = env.robot_uids
+        self.env = env
+        self.actions: deque[np.ndarray] = deque()
+        self.gripper = 0.0
+        self.fixture_names: list[str] = []
+        self._fixture_box_cache: tuple | None = None
+        self.tcp_in_flange = None
+
+    def bind(self, env: RoboLabEnv) -> None:
+        """Plan for `env` (the unwrapped RoboLabEnv): read the fixed transform from the flange to the TCP."""
+        self.env = env
+        flange = env.agent.robot.links_map[FLANGE_LINK].pose
+        self.tcp_in_flange = (flange.inv() * env.tcp_pose()).sp  # fixed: the hand is rigid on the flange
+
+    # -------------------------------------------------------------------------------------------- the queue
+    def mark(self) -> int:
+        """A mark of the queue as it is now, for `rewind`."""
+        return len(self.actions)
+
+    def rewind(self, mark: int) -> None:
+        """Drop the actions queued since `mark` (a plan given up half-way)."""
+        while len(self.actions) > mark:
+            self.actions.pop()
+
+    def action(self, qpos: np.ndarray, gripper: float) -> np.ndarray:
+        """The env's 8-D action from a planning-model joint vector: 7 arm joint targets, then the gripper."""
+        return np.concatenate([qpos[:7], [gripper]]).astype(np.float32)
+
+    def hold(self, qpos: np.ndarray, gripper: float, steps: int) -> None:
+        """Queue `steps` actions holding posture `qpos` with the gripper at `gripper` (which stays commanded)."""
+        self.gripper = gripper
+        for _ in range(steps):
+            self.actions.append(self.action(qpos, gripper))
+
+    def queue(self, qpos: np.ndarray, path) -> np.ndarray:
+        """Queue a joint path (rows of 7 arm joints) from posture `qpos`, then hold its end a moment; returns the
+        final posture."""
+        final = qpos.copy()
+        for joints in path:
+            final[:7] = joints
+            self.actions.append(self.action(final, self.gripper))
+        self.hold(final, self.gripper, SETTLE_STEPS)
+        return final
+
+    # -------------------------------------------------------------------------------------------- the arm
+    @property
+    def time_step(self) -> float:
+        return 1.0 / self.env.control_freq
+
+    def current_qpos(self) -> np.ndarray:
+        """The planning model's joints (the arm's 7, then 2 fingers, kept open) from the robot's state."""
+        arm = self.env.arm_qpos()[0].cpu().numpy().astype(np.float64)
+        return np.concatenate([arm, [OPEN_FINGER_QPOS, OPEN_FINGER_QPOS]])
+
+    def flange_target(self, tcp_pose: np.ndarray) -> np.ndarray:
+        """The flange pose [x, y, z, qw, qx, qy, qz] that puts the TCP at `tcp_pose`."""
+        import sapien
+
+        flange = sapien.Pose(p=tcp_pose[:3], q=tcp_pose[3:]) * self.tcp_in_flange.inv()
+        return np.concatenate([flange.p, flange.q])
+
+    def tcp_at(self, qpos: np.ndarray) -> np.ndarray:
+        """The TCP pose [x, y, z, qw, qx, qy, qz] at posture `qpos` (forward kinematics)."""
+        import sapien
+
+        model = self.planner.pinocchio_model
+        model.compute_forward_kinematics(qpos)
+        flange = np.asarray(model.get_link_pose(self.planner.link_name_2_idx[FLANGE_LINK]))
+        tcp = sapien.Pose(p=flange[:3], q=flange[3:]) * self.tcp_in_flange
+        return np.concatenate([tcp.p, tcp.q])
+
+    def ik(self, pose: np.ndarray, qpos: np.ndarray, starts: int | None = None) -> tuple[str, list[np.ndarray]]:
+        """Inverse kinematics for TCP `pose` from posture `qpos` (the planner's own random starts, or `starts`):
+        (status, postures)."""
+        if starts is None:
+            return self.planner.IK(self.flange_target(pose), qpos)
+        return self.planner.IK(self.flange_target(pose), qpos, n_init_qpos=starts)
+
+    # -------------------------------------------------------------------------------------------- collisions
+    def sync_fixtures(self) -> None:
+        """Give the planner the episode's fixtures (shelves) as boxes, so that inverse kinematics and the planned
+        moves keep the arm out of them (the other objects are left out: the hand reaches in among them)."""
+        import mplib.pymp as mp
+
+        fcl = mp.collision_detection.fcl
+        for name in self.fixture_names:
+            self.planner.remove_normal_object(name)
+        self.fixture_names = []
+        if self.env.scene.gpu_sim_enabled:
+            return
+        for index, (rotation, centre, half) in enumerate(fixture_boxes(self.env)):
+            name = f"fixture_{index}"
+            box = fcl.CollisionObject(fcl.Box(2 * half), centre, matrix_to_quaternion(rotation))
+            self.planner.set_normal_object(name, box)
+            self.fixture_names.append(name)
+
+    @contextmanager
+    def inflated_fixtures(self, margin: float) -> Iterator[None]:
+        """The planner's fixture boxes grown by `margin` on every side for the duration, the exact ones after."""
+        import mplib.pymp as mp
+
+        fcl = mp.collision_detection.fcl
+        boxes = fixture_boxes(self.env) if self.fixture_names else []
+
+        def install(grow: float) -> None:
+            for name, (rotation, centre, half) in zip(self.fixture_names, boxes):
+                shape = fcl.CollisionObject(fcl.Box(2 * (half + grow)), centre, matrix_to_quaternion(rotation))
+                self.planner.set_normal_object(name, shape)
+
+        install(margin)
+        try:
+            yield
+        finally:
+            install(0.0)
+
+    def collides(self, qpos: np.ndarray) -> bool:
+        """Whether the arm at planning-model joints `qpos` collides with itself or a fixture."""
+        if self.planner.check_for_self_collision(qpos=qpos):
+            return True
+        return bool(self.fixture_names) and self.arm_hits_fixture(qpos)
+
+    def arm_hits_fixture(self, qpos: np.ndarray) -> bool:
+        """Whether the arm at planning-model joints `qpos` hits a fixture: its links from the flange back as the
+        planner models them, the hand as the real gripper's solids at the TCP (`gripper.hand_clear`)."""
+        if any(hit.link_name1 not in PLANNER_HAND_LINKS for hit in self.planner.check_for_env_collision(qpos=qpos)):
+            return True
+        boxes = self._fixture_box_cache
+        if boxes is None or boxes[0] is not self.env or boxes[1] != self.fixture_names:
+            self._fixture_box_cache = boxes = (self.env, list(self.fixture_names), fixture_boxes(self.env))
+        return not hand_clear(self.tcp_at(qpos), boxes[2])
+
+    # -------------------------------------------------------------------------------------------- paths
+    def plan_straight(self, flange_pose: np.ndarray, qpos: np.ndarray) -> Plan:
+        """A timed joint path that moves the flange along a straight line (and the shortest turn) to `flange_pose`:
+        inverse kinematics solved from the previous waypoint every STRAIGHT_STEP metres (or STRAIGHT_TURN radians),
+        so the path ends on the pose to within a millimetre; fails on a joint limit, a jump or a collision."""
+        from scipy.spatial.transform import Rotation, Slerp
+
+        planner = self.planner
+        model, flange = planner.pinocchio_model, planner.link_name_2_idx[FLANGE_LINK]
+        model.compute_forward_kinematics(qpos)
+        start = np.asarray(model.get_link_pose(flange))
+        turns = Rotation.from_quat([np.roll(start[3:], -1), np.roll(flange_pose[3:], -1)])  # (x, y, z, w) order
+        angle = (turns[0].inv() * turns[1]).magnitude()
+        distance = float(np.linalg.norm(flange_pose[:3] - start[:3]))
+        count = max(1, int(np.ceil(max(distance / STRAIGHT_STEP, angle / STRAIGHT_TURN))))
+        slerp = Slerp([0.0, 1.0], turns)
+        lower, upper = np.asarray(planner.joint_limits)[:7].T
+        current, path = qpos.copy(), [qpos[:7].copy()]
+        for fraction in np.arange(1, count + 1) / count:
+            waypoint = np.concatenate(
+                [start[:3] + fraction * (flange_pose[:3] - start[:3]), np.roll(slerp(fraction).as_quat(), 1)]
+            )
+            solution, converged, _ = model.compute_IK_CLIK(flange, waypoint, current)
+            solution = np.asarray(solution)
+            if (
+                not converged
+                or np.any(solution[:7] < lower - 1e-3)
+                or np.any(solution[:7] > upper + 1e-3)
+                or np.abs(solution[:7] - current[:7]).max() > MAX_JOINT_JUMP
+                or self.collides(solution)
+            ):
+                return {"status": "straight move failed"}
+            current = solution
+            path.append(current[:7].copy())
+        _, position, *_ = planner.TOPP(np.asarray(path), self.time_step)
+        return {"status": "Success", "position": position}
+
+    def plan_to_joints(self, goals: list[np.ndarray], qpos: np.ndarray) -> Plan:
+        """A timed joint path to the first goal reachable by a straight line in joint space free of collisions; a
+        sampling planner (not reproducible) only when no straight line is free."""
+        planner, step = self.planner, self.time_step
+        for goal in goals:
+            count = int(np.ceil(np.max(np.abs(goal[:7] - qpos[:7])) / JOINT_PATH_RESOLUTION)) + 1
+            path = np.linspace(qpos, goal, max(count, 2))
+            if any(self.collides(point) for point in path):
+                continue
+            if count == 1:
+                return {"status": "Success", "position": path[-1:, :7]}
+            _, position, *_ = planner.TOPP(path[:, :7], step)
+            return {"status": "Success", "position": position}
+        return planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=SAMPLED_PLANNING_TIME)
+
+    def straight_chain(self, qpos: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray] | None:
+        """Joint paths of consecutive straight moves through TCP `poses` from `qpos`, or None if one fails."""
+        paths, current = [], qpos.copy()
+        for pose in poses:
+            result = self.plan_straight(self.flange_target(pose), current)
+            if result["status"] != "Success":  # at the edge of the workspace: within a centimetre of the pose
+                result = self.planner.plan_screw(self.flange_target(pose), current, time_step=self.time_step)
+            if result["status"] != "Success":
+                return None
+            position = np.asarray(result["position"])
+            if len(position) == 0:  # the screw motion found the hand already there: a path that stays put
+                position = current[None, :7].copy()
+            paths.append(position)
+            current[:7] = paths[-1][-1]
+        return paths
+
+    def free_joint_line(self, qpos: np.ndarray, goal: np.ndarray) -> np.ndarray | None:
+        """A timed joint path along the straight line in joint space from `qpos` to `goal`, free of collisions once
+        the arm has left a collision it starts in (the planner's hand model is wider than the gripper and may touch
+        a shelf at the start); None where it is not free."""
+        count = int(np.ceil(np.max(np.abs(goal[:7] - qpos[:7])) / JOINT_PATH_RESOLUTION)) + 1
+        path = np.linspace(qpos, goal, max(count, 2))
+        leaving = True
+        for point in path[1:]:
+            hit = self.collides(point)
+            if hit and not leaving:
+                return None
+            leaving = leaving and hit
+        if leaving:
+            return None
+        _, position, *_ = self.planner.TOPP(path[:, :7], self.time_step)
+        return position
+
+    # -------------------------------------------------------------------------------------------- moves
+    def move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
+        """Queue the actions of one move to TCP `pose`, a straight line if `straight` and one can be planned;
+        returns the final joints. OracleFailure, saying `what` could not be done, where no move is planned."""
+        planner, step = self.planner, self.time_step
+        pose = self.flange_target(pose)
+        result = self.plan_straight(pose, qpos) if straight else {"status": "not tried"}
+        if straight and result["status"] != "Success":  # at the edge of the workspace: a straight line that may miss
+            result = planner.plan_screw(pose, qpos, time_step=step)  # the pose by a centimetre, or none
+        if result["status"] != "Success":
+            status, goals = planner.IK(pose, qpos)
+            if status != "Success":  # near the edge of the workspace: try harder
+                status, goals = planner.IK(pose, qpos, n_init_qpos=IK_RETRIES)
+            result = self.plan_to_joints(goals, qpos) if status == "Success" else {"status": status}
+        if result["status"] != "Success":
+            raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
+        return self.queue(qpos, result["position"])
+
+    def move_straight(self, qpos: np.ndarray, pose: np.ndarray, what: str) -> np.ndarray:
+        """Queue a straight move of the TCP to `pose` (mplib's screw motion where the straight line fails), never
+        a sampled path: for moves that must keep a held object on its line (out of a shelf); returns the final
+        joints."""
+        paths = self.straight_chain(qpos, [pose])
+        if paths is None:
+            raise OracleFailure(f"cannot {what}: no straight move")
+        return self.queue(qpos, paths[0])
+
+    def can_lower(self, over: np.ndarray, place: np.ndarray) -> bool:
+        """Whether the arm reaches TCP pose `over` (by inverse kinematics) and from there moves straight to
+        `place`."""
+        status, postures = self.ik(over, self.current_qpos())
+        if status != "Success":
+            return False
+        start = self.current_qpos()
+        start[:7] = postures[0][:7]
+        return self.plan_straight(self.flange_target(place), start)["status"] == "Success"
+
+    def move_for_chain(self, qpos: np.ndarray, pose: np.ndarray, chain: list[np.ndarray], what: str) -> np.ndarray:
+        """Queue the move from posture `qpos` to TCP pose `pose` (`move`, a sampled path allowed) so that it ends
+        in a posture from which the straight moves through the TCP poses `chain` can be planned: where the posture
+        it reaches has none, the postures over `pose` found from many random starts are tried (nearest the arm's
+        rest posture turned towards `pose` first). Returns the final joints."""
+        planned = self.mark()
+        end = self.move(qpos, pose, what, straight=False)
+        if self.straight_chain(end, chain) is not None:
+            return end
+        status, goals = self.ik(pose, qpos, POSTURE_STARTS)
+        if status != "Success":
+            return end
+        for goal in sorted(goals, key=lambda joints: _from_neutral(joints, pose)):
+            start = qpos.copy()
+            start[:7] = goal[:7]
+            if self.collides(start) or self.straight_chain(start, chain) is None:
+                continue
+            result = self.plan_to_joints([start], qpos)
+            if result["status"] != "Success":
+                continue
+            self.rewind(planned)
+            return self.queue(qpos, result["position"])
+        return end
+
+    # -------------------------------------------------------------------------------------------- reaches
+    def reach_over(self, qpos: np.ndarray, above_grasp: np.ndarray, name: str) -> np.ndarray:
+        """Queue the move from posture `qpos` to `above_grasp` (over object `name`); where something tall (a
+        crate's wall) rises near the straight way there, or the planned joint path itself dips onto something on
+        the way (`clearance.sag_height`), the hand first goes over the grasp at a height that passes above
+        everything on the way, then straight down. Returns the final joints."""
+        what = f"reach above '{name}'"
+        start = self.tcp_at(qpos)[:3]
+        height = pass_height(self.env, np.asarray(start, dtype=np.float64), above_grasp[:3], name)
+        if height is None:
+            planned = self.mark()
+            end = self.move(qpos, above_grasp, what, straight=False)
+            height = self._sagging_height(planned, name)
+            if height is None:
+                return end
+            self.rewind(planned)
+            height = max(height, float(above_grasp[2]))
+        transit = above_grasp.copy()
+        transit[2] = height
+        qpos = self.move(qpos, transit, what, straight=False)
+        return self.move(qpos, above_grasp, f"come down over '{name}'")
+
+    def _sagging_height(self, first_action: int, name: str) -> float | None:
+        """`clearance.sag_height` along the TCP path of the actions queued from `first_action` on."""
+        actions = list(self.actions)[first_action:]
+        if not actions:
+            return None
+        joints = self.current_qpos()
+        way = []
+        for action in actions:
+            joints[:7] = action[:7]
+            way.append(self.tcp_at(joints)[:3])
+        return sag_height(self.env, np.asarray(way, dtype=np.float64), name)
+
+    def reach_over_clear(self, qpos: np.ndarray, above: np.ndarray, target: np.ndarray, name: str) -> np.ndarray:
+        """Queue the move from posture `qpos` to TCP pose `above` over object `name` (`reach_over`); where fixtures
+        are in the scene and the straight move from there down to `target` cannot be planned (beside a shelf the
+        forearm of the posture inverse kinematics picks may pass through a board, and a joint-space fallback would
+        swing the open fingers through the object), the move goes instead to a posture from which it can
+        (`clear_posture`), if there is one; where `above` cannot be reached at all, to such a posture lower down
+        (`clear_approach`). Returns the final joints."""
+        planned = self.mark()
+        try:
+            end = self.reach_over(qpos, above, name)
+        except OracleFailure as error:  # `above` out of reach (raised high over a tall neighbour): lower, if it clears
+            failure, end = error, None
+        if end is not None and not self.fixture_names:
+            return end
+        if end is not None and self.plan_straight(self.flange_target(target), end)["status"] == "Success":
+            return end
+        with self.inflated_fixtures(FIXTURE_MARGIN):
+            path = self.clear_approach(qpos, above, target)
+        if path is None:
+            if end is None:
+                raise failure
+            return end
+        self.rewind(planned)
+        return self.queue(qpos, path)
+
+    def clear_posture(self, qpos: np.ndarray, above: np.ndarray, target: np.ndarray) -> np.ndarray | None:
+        """A posture with the TCP at pose `above` from which a straight move to TCP pose `target` is planned free
+        of the fixtures, nearest in joint space to the arm's neutral posture turned towards `target` (not to
+        `qpos`, which after a place on a high shelf may be a flipped one); None where there is none."""
+        status, goals = self.ik(above, qpos, POSTURE_STARTS)
+        if status != "Success":
+            return None
+        goal_flange = self.flange_target(target)
+        for goal in sorted(goals, key=lambda joints: _from_neutral(joints, target)):
+            start = qpos.copy()
+            start[:7] = goal[:7]
+            if self.collides(start):
+                continue
+            if self.plan_straight(goal_flange, start)["status"] == "Success":
+                return start
+        return None
+
+    def clear_approach(self, qpos: np.ndarray, above: np.ndarray, target: np.ndarray) -> np.ndarray | None:
+        """A timed joint path from `qpos` to a posture over `target` from which the straight move down to it is free
+        (`clear_posture`): at the height of `above`, else at lower heights from which the fingertips still clear the
+        objects around (`clears_below`); None where there is none."""
+        goal = self.clear_posture(qpos, above, target)
+        if goal is not None:
+            result = self.plan_to_joints([goal], qpos)
+            if result["status"] == "Success":
+                return result["position"]
+        for height in np.arange(above[2] - LOWER_STEP, target[2], -LOWER_STEP):  # beside a tall shelf: come in lower
+            lowered = above.copy()
+            lowered[2] = height
+            if not self.clears_below(lowered, target):
+                continue
+            goal = self.clear_posture(qpos, lowered, target)
+            path = self.free_joint_line(qpos, goal) if goal is not None else None
+            if path is not None:
+                return path
+        return None
+
+    def clears_below(self, pose: np.ndarray, target: np.ndarray) -> bool:
+        """Whether TCP pose `pose` is at least APPROACH_HEIGHT above `target` and its fingertips TRAVEL_CLEARANCE
+        above every object within TRAVEL_RADIUS that rises from below it (the fixtures aside, which the planner keeps
+        the arm out of, and what stands on their levels above the hand)."""
+        if pose[2] < target[2] + APPROACH_HEIGHT - 1e-6:
+            return False
+        env = self.env
+        env.eval_context.refresh()
+        for name in env.objects:
+            if env.eval_context.entries[name].is_fixture:
+                continue
+            points = world_points(env, name)
+            if points[:, 2].min() > pose[2]:
+                continue
+            near = np.linalg.norm(points[:, :2] - pose[:2], axis=1) < TRAVEL_RADIUS
+            if float(points[near, 2].max(initial=0.0)) + TRAVEL_CLEARANCE + FINGERTIP_BELOW_TCP > pose[2]:
+                return False
+        return True
+
+
+def _from_neutral(joints: np.ndarray, towards: np.ndarray) -> float:
+    """How far (rad, the largest joint difference) `joints` lie from the arm's neutral posture with its shoulder
+    turned towards TCP position `towards`."""
+    neutral = np.array(NEUTRAL_POSTURE)
+    neutral[0] = np.arctan2(towards[1], towards[0])
+    return float(np.abs(joints[:7] - neutral).max())

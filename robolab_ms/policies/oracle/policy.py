@@ -1,0 +1,230 @@
+"""The oracle's execution: a closed loop over the jobs of the task's success condition (see `compile`).
+
+It plans one job (one object) at a time from the state it finds, with the skill the object's situation calls
+for, and replays the queued actions. A held object that falls away from the closed hand ends its job's moves at
+once; when a job's moves are over it checks the task's condition for that object, and a job that did not get
+there (the object slipped, tipped or was never held) is planned again from the new state, up to JOB_RETRIES times,
+with a different grasp first. A job that cannot be planned at all goes after the others once, since moving them
+may free its way. When it cannot go on it raises OracleFailure saying why.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from gymnasium import spaces
+
+from robolab_ms.policies import Policy
+from robolab_ms.policies.oracle.compile import Job, job_done, jobs_for
+from robolab_ms.policies.oracle.failure import OracleFailure
+from robolab_ms.policies.oracle.grasps import grasp_pose
+from robolab_ms.policies.oracle.motion import GRIPPER_STEPS, SETTLE_STEPS, MotionPlanner, seed_inverse_kinematics
+from robolab_ms.policies.oracle.places import crowded_top
+from robolab_ms.policies.oracle.side_grasps import side_grips
+from robolab_ms.policies.oracle.skills import (
+    front_pick_and_place,
+    pick_and_place,
+    side_hold_pick_and_place,
+    stand_upright,
+)
+from robolab_ms.policies.oracle.world import covered, lying_container
+
+if TYPE_CHECKING:
+    from robolab_ms.envs.robolab_env import RoboLabEnv
+
+JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
+JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
+SLIP_DISTANCE = 0.05  # m the held object may move away from the hand (its grip settled) before it counts as slipped
+
+
+class OraclePolicy(Policy):
+    """Solves tasks from privileged simulator state; the upper-bound row of a results table."""
+
+    name = "oracle"
+    needs_images = False
+    privileged = True
+
+    def __init__(self) -> None:
+        self.env: RoboLabEnv | None = None
+        self.motion: MotionPlanner | None = None
+
+    @property
+    def actions(self) -> deque[np.ndarray]:
+        """The actions queued and not yet sent."""
+        return self.motion.actions if self.motion is not None else deque()
+
+    def bind(self, env: Any) -> None:
+        """Give the oracle the environment whose true state it reads (the unwrapped RoboLabEnv)."""
+        self.env = env.unwrapped
+        if self.motion is None or self.motion.robot != self.env.robot_uids:
+            self.motion = MotionPlanner(self.env)
+        self.motion.bind(self.env)
+
+    def reset(self, instruction: str, action_space: spaces.Box, seed: int) -> None:
+        if self.env is None:
+            raise OracleFailure("the oracle reads the simulator: call bind(env) before reset()")
+        seed_inverse_kinematics(seed)
+        self.motion.sync_fixtures()
+        self.jobs: deque[Job] = deque(jobs_for(self.env))
+        self.motion.actions.clear()
+        self.motion.gripper = 0.0
+        self.job: Job | None = None  # the job whose actions are being replayed
+        self._job_settled = False  # whether the hand has held still once after it, before the second check
+        self.retries: dict[str, int] = {}  # per object: jobs planned again
+        self.grasps: dict[str, list[np.ndarray]] = {}  # per object: the grasps its jobs were planned with
+        self._closed_steps = 0  # actions replayed in a row with the gripper closed
+        self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
+
+    def act(self, observation: dict[str, Any]) -> np.ndarray:
+        motion = self.motion
+        while not motion.actions:
+            if self.job is not None and self._check_job():
+                continue  # the hand holds still a moment before the job is checked again
+            if not self.jobs:  # everything done: hold still with the gripper open
+                return motion.action(motion.current_qpos(), 0.0)
+            job = self.jobs.popleft()
+            self.job, self._job_settled = job, False  # _plan_job may hand the check to a job it queues
+            try:
+                self._plan_job(job)
+            except OracleFailure:
+                self.job = None
+                motion.actions.clear()  # a plan that failed half-way leaves nothing to replay
+                if not self._retry(job, first=False):
+                    raise
+                continue
+        action = motion.actions.popleft()
+        if self.job is not None and self._slipped(action):  # the rest of the job is moot: open, check, plan again
+            motion.actions.clear()
+            motion.hold(motion.current_qpos(), 0.0, GRIPPER_STEPS)
+            action = motion.actions.popleft()
+        return action
+
+    # ------------------------------------------------------------------------------------------------ the loop
+    def _slipped(self, action: np.ndarray) -> bool:
+        """Whether the object of the job being replayed has fallen away from the closed hand: once the grip has
+        settled, its distance from the TCP grew by more than SLIP_DISTANCE."""
+        if action[7] < 0.5:
+            self._closed_steps, self._held_offset = 0, None
+            return False
+        self._closed_steps += 1
+        if self._closed_steps < GRIPPER_STEPS + SETTLE_STEPS:
+            return False
+        offset = float(np.linalg.norm((self.env.objects[self.job.obj].pose.p[0] - self.env.tcp_pose().p[0]).cpu()))
+        if self._held_offset is None:
+            self._held_offset = offset
+        return offset > self._held_offset + SLIP_DISTANCE
+
+    def _check_job(self) -> bool:
+        """After a job's actions: whether its object satisfies the task's condition; if not, hold still once
+        (True: actions were queued) and then plan the job again. Group conditions (a stack, an order) hold only
+        when every job is done, so their jobs are not checked."""
+        job = self.job
+        if job_done(self.env, job):
+            self.job = None
+            return False
+        if not self._job_settled:
+            self._job_settled = True
+            self.motion.hold(self.motion.current_qpos(), 0.0, JOB_SETTLE_STEPS)
+            return True
+        self.job = None
+        self._retry(job, first=True)  # with another grasp: the one that failed comes last (grasp_pose's `failed`)
+        return False
+
+    def _retry(self, job: Job, first: bool) -> bool:
+        """Queue `job` again, at the front of the jobs when `first` (planned next), else after the others, unless
+        its object has used up its retries; whether it was queued."""
+        used = self.retries.get(job.obj, 0)
+        if used >= JOB_RETRIES:
+            return False
+        self.retries[job.obj] = used + 1
+        if first:
+            self.jobs.appendleft(job)
+        else:
+            self.jobs.append(job)
+        return True
+
+    # ------------------------------------------------------------------------------------------------ the skills
+    def _plan_job(self, job: Job) -> None:
+        """Queue the moves of `job` with the skill its object's situation calls for."""
+        env, motion = self.env, self.motion
+        if job.upright and job.onto is not None:  # a lying container stood up first where it can be, then moved
+            if self._stand_up_first(job):
+                self.job = None  # only the stand-up is queued: the move queued after it is the job checked
+                return
+            job = self.job = Job(job.obj, onto=job.onto, centred=job.centred)
+        if job.upright:
+            stand_upright(motion, job.obj)
+            return
+        where = {"onto": job.onto, "at": job.at}
+        if not env.scene.gpu_sim_enabled and covered(env, job.obj):  # on a shelf level under another
+            front_pick_and_place(motion, job.obj, centred=job.centred, lift=job.lift, **where)
+            return
+        if self._side_hold(job):  # a long tool in a bin, its handle out over the wall: held there from the side
+            return
+        after = self._sharing(job)
+        failed = self.grasps.setdefault(job.obj, [])
+        grasp = grasp_pose(env, job.obj, failed=failed)
+        failed.append(grasp)  # a job that succeeds is not planned again, so only failed grasps are looked at
+        pick_and_place(motion, job.obj, grasp, centred=job.centred, lift=job.lift, after=after, **where)
+
+    def _stand_up_first(self, job: Job) -> bool:
+        """Where `job`'s object is a container lying on its side (a top-down grasp lands the open fingers on its
+        round body), queue the tip that stands it up and put the move itself back at the front of the jobs; False
+        (nothing queued) where it no longer lies or the tip cannot be planned."""
+        if not lying_container(self.env, job.obj):
+            return False
+        planned = self.motion.mark()
+        try:
+            stand_upright(self.motion, job.obj)
+        except OracleFailure:
+            self.motion.rewind(planned)
+            return False
+        self.jobs.appendleft(Job(job.obj, onto=job.onto, centred=job.centred))
+        return True
+
+    def _side_hold(self, job: Job) -> bool:
+        """Plan `job` (onto the table or into a container) with a side hold of its object's handle, where the object
+        is a long tool in a container with its handle reaching out (`side_grips`); where both sides of it are taken,
+        the first later job whose object has a free side is planned instead and `job` goes to the back of the queue
+        (packed tools are taken from the outside in). Whether a job was planned; the next of the holds comes first
+        each time the job is planned again."""
+        env = self.env
+        if job.at is None and job.onto is None:
+            return False
+        grips = side_grips(env, job.obj)
+        if not grips and side_grips(env, job.obj, fits=True):  # walled in on both sides: first one that is not
+            later = next((other for other in self.jobs if side_grips(env, other.obj)), None)
+            if later is not None:
+                self.jobs.remove(later)
+                self.jobs.append(job)
+                self.job = later
+                try:
+                    self._hold_by_handle(later, side_grips(env, later.obj))
+                    return True
+                except OracleFailure:  # the caller queues `job` again; `later` waits its turn, its retries unused
+                    self.jobs.remove(job)
+                    self.jobs.append(later)
+                    raise
+        if not grips:
+            return False
+        self._hold_by_handle(job, grips)
+        return True
+
+    def _hold_by_handle(self, job: Job, grips: list[tuple[np.ndarray, np.ndarray]]) -> None:
+        tried = self.grasps.setdefault(job.obj, [])
+        side_hold_pick_and_place(self.motion, job.obj, grips, tried, onto=job.onto, at=job.at)
+
+    def _sharing(self, job: Job) -> list[str] | None:
+        """Where the task's jobs set several objects onto `job`'s small flat top (`places.crowded_top`): the objects
+        still to go onto it after this one; else None."""
+        env = self.env
+        if job.onto is None or job.centred or env.scene.gpu_sim_enabled:
+            return None
+        sharing = [other.obj for other in jobs_for(env) if other.onto == job.onto and not other.centred]
+        if job.obj not in sharing or not crowded_top(env, job.onto, sharing):
+            return None
+        return [
+            other.obj for other in self.jobs if other.onto == job.onto and not other.centred and other.obj != job.obj
+        ]

@@ -1,0 +1,611 @@
+"""Reusable skills: whole manipulations planned from the state the oracle finds and queued on a `MotionPlanner`.
+
+- `pick_and_place`: a top-down grasp, the lift, the carry over what stands on the way and the release at a free
+  spot (or a lift alone), with the approaches a grasp calls for (in sideways under an overhang, settling over an
+  object as wide as the open fingers, from lower down for a heavy tool at the edge of the reach, drawn nearer
+  before it is lifted) and the exits (slid off an object as wide as the open fingers, in from the front onto a
+  high shelf);
+- `front_pick_and_place`: an object under a shelf level, grasped by a hand leaning in from the open side and
+  pulled straight out;
+- `side_hold_pick_and_place`: a long tool held by its handle from the side where it reaches out of a container;
+- `stand_upright`: a lying object stood up, tipped about its base (`pivot_upright`, holding a container's rim or
+  a narrow end) or lifted and turned in the air (`lift_and_turn_upright`).
+A skill raises OracleFailure where it cannot be planned, and then leaves nothing of itself queued.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from robolab_ms.policies.oracle.clearance import APPROACH_HEIGHT, LIFT_HEIGHT, above, held_spread, high_carry
+from robolab_ms.policies.oracle.failure import OracleFailure
+from robolab_ms.policies.oracle.geometry import (
+    matrix_to_quaternion,
+    quat_to_matrix,
+    raised,
+    rolled,
+    rotation_about,
+    rotation_between,
+    shifted,
+)
+from robolab_ms.policies.oracle.grasps import (
+    end_grasp,
+    grasp_pose,
+    settle_pose,
+    side_step_path,
+    snug,
+)
+from robolab_ms.policies.oracle.motion import GRIPPER_STEPS, IK_RETRIES, MotionPlanner
+from robolab_ms.policies.oracle.places import (
+    RELEASE_CLEARANCE,
+    Reachable,
+    Spot,
+    free_place,
+    head_first_place,
+    place_pose,
+    shared_place,
+    turned_place,
+)
+from robolab_ms.policies.oracle.side_grasps import (
+    FRONT_LIFT,
+    FrontGrasp,
+    front_grasps,
+    moved_out,
+    pulled_out,
+    rim_grasp,
+    turned_rim_grasps,
+)
+from robolab_ms.policies.oracle.world import (
+    centre,
+    container_below,
+    fixture_boxes,
+    is_heavy,
+    is_tool,
+    object_bottom,
+    world_points,
+)
+
+if TYPE_CHECKING:
+    from robolab_ms.envs.robolab_env import RoboLabEnv
+
+BACK_OFF = 0.06  # m the hand backs away (and rises) after setting an object down upright
+SLIDE_OFF = 0.012  # m the hand moves along the closing direction after letting go of an object as wide as the fingers
+STEP_SETTLE_STEPS = 12  # control steps held before a descent of millimetres, for the arm to catch up
+STEP_LIFT = 0.01  # m the held object is raised off the table before the hand moves back out sideways
+PIVOT_STEPS = 6  # straight moves that tip a lying object up about its base
+RIM_APPROACH = 0.06  # m outside a lying container's opening from where the hand moves straight in to the rim
+BASE_BAND = 0.01  # m above the lowest point along a lying object's axis that counts as its base
+FRONT_PLACE_RISE = 0.02  # m above the release that an object is slid in over a high shelf from the front ...
+FRONT_PLACE_LEAVE = 0.05  # ... and the hand rises over the release before it leaves
+TOOL_REACH = 0.765  # m from the robot's base (horizontally) within which the arm lifts a tool held from above
+APPROACH_STEP = 0.01  # m between the heights tried for the pose a far tool is reached from ...
+APPROACH_LOWEST = 0.03  # ... down to this far above the grasp ...
+APPROACH_BACKS = (0.0, 0.02, 0.04)  # ... at each height first over the grasp, then drawn back this far (m)
+DRAW_RISE = 0.01  # m a far tool is raised off the floor while it is drawn nearer ...
+DRAW_MAX = 0.05  # ... by at most this far
+SIDE_APPROACHES = (0.10, 0.07, 0.05)  # m from a side hold, level across the handle, where the hand starts in
+SIDE_LIFT_CLEARANCE = 0.03  # m the tool, hanging straight down from a side hold, is lifted above its container
+SIDE_LIFT_MIN = 0.15  # m the tool held from the side is lifted at least
+SIDE_BACK_OUT = 0.08  # m the hand backs out along its approach after letting go of a side hold
+SIDE_RETREAT = 0.05  # m the hand rises after backing out
+RISE_STEP = 0.04  # m per straight move of a lift from a side hold
+MAX_SWING = 0.6  # rad a joint may turn in a lift's step that is not a straight move, once it has risen SIDE_LIFT_MIN
+
+
+def _where(onto: str | None, at: tuple[float, float] | None) -> str:
+    return f"'{onto}'" if onto else f"the table at ({at[0]:.2f}, {at[1]:.2f})"
+
+
+# ------------------------------------------------------------------------------------------------ pick and place
+def pick_and_place(
+    motion: MotionPlanner,
+    name: str,
+    grasp: np.ndarray,
+    onto: str | None = None,
+    at: tuple[float, float] | None = None,
+    centred: bool = False,
+    lift: float = 0.0,
+    after: list[str] | None = None,
+) -> None:
+    """Queue the moves that take object `name` at the top-down `grasp` and set it down onto or into `onto` (at a
+    free spot of it, or at its middle when `centred`), onto the table with the middle of its footprint at `at`, or
+    (neither) lift it by `lift`. `after`: the objects still to go onto `onto` where it is a small top they share
+    (`places.shared_place`), else None."""
+    env = motion.env
+    held_offset = grasp[:2] - centre(env, name)[:2]  # from the middle of the footprint to the TCP
+    held_bottom = grasp[2] - object_bottom(env, name)  # TCP height above the object's bottom
+    wide_as_fingers = snug(env, name, grasp)
+    around = held_spread(env, name, grasp)  # how far the held object reaches from the TCP
+    if onto is not None or at is not None:  # planned before the grasp, which holds the object as it is
+        spot = None
+        if onto is not None and not centred:
+            spot = release_spot(motion, name, onto, grasp, held_bottom, after)
+        place, above_place = (
+            spot if spot is not None else place_pose(env, name, onto, at, grasp, held_bottom, held_offset)
+        )
+    qpos = motion.current_qpos()
+    sideways = side_step_path(env, name, grasp)  # (beside, over): in under an overhang, else None
+    above_grasp = above(env, grasp if sideways is None else sideways[0], APPROACH_HEIGHT, hanging=0.0)
+    far = sideways is None and far_tool(env, name, grasp)  # a heavy tool at the edge of the arm's reach
+    if far:
+        above_grasp = reachable_above(motion, grasp, above_grasp)
+    qpos = motion.reach_over_clear(qpos, above_grasp, grasp if sideways is None else sideways[0], name)
+    if sideways is not None:
+        qpos = motion.move(qpos, sideways[0], f"descend beside '{name}'")
+        qpos = motion.move(qpos, sideways[1], f"move in over '{name}'")
+        motion.hold(qpos, 0.0, STEP_SETTLE_STEPS)  # the pads go down millimetres from the object's edges
+    if wide_as_fingers and sideways is None:  # the open pads pass it with millimetres to spare: settle above it
+        qpos = motion.move(qpos, settle_pose(env, name, grasp), f"settle over '{name}'")
+        motion.hold(qpos, 0.0, STEP_SETTLE_STEPS)
+    qpos = motion.move(qpos, grasp, f"descend to '{name}'")
+    motion.hold(qpos, 1.0, GRIPPER_STEPS)
+    if far:  # drawn nearer the robot, just off the floor, where the arm can lift it
+        qpos, grasp = draw_nearer(motion, qpos, grasp, name)
+    if onto is None and at is None and sideways is None:
+        motion.move(qpos, raised(grasp, lift), f"lift '{name}'")
+        return
+    lifted = above(env, grasp, LIFT_HEIGHT, hanging=held_bottom, held=name)
+    if sideways is not None:  # back out from under the overhang, then up
+        qpos = motion.move(qpos, raised(sideways[1], STEP_LIFT), f"raise '{name}' off the table")
+        qpos = motion.move(qpos, raised(sideways[0], STEP_LIFT), f"move '{name}' out from under the overhang")
+        if onto is None and at is None:
+            motion.move(qpos, raised(sideways[0], STEP_LIFT + lift), f"lift '{name}'")
+            return
+        lifted = above(env, raised(sideways[0], STEP_LIFT), LIFT_HEIGHT, hanging=held_bottom, held=name)
+    carry = high_carry(env, name, lifted, above_place, held_bottom, around, onto)
+    qpos = motion.move(qpos, lifted if carry is None else carry[0], f"lift '{name}'")
+    where = _where(onto, at)
+    try:
+        if carry is not None:  # over something tall on the way, at one height, then down to the pose over the place
+            qpos = motion.move(qpos, carry[1], f"carry '{name}' high over {where}")
+        qpos = motion.move(qpos, above_place, f"carry '{name}' over {where}", straight=False)
+    except OracleFailure:  # too high above a shelf: in from the front, if there is a way
+        way = front_place_way(motion, name, grasp, place)
+        if way is None:
+            raise
+        front_place(motion, qpos, name, way, place, where)
+        return
+    qpos = motion.move(qpos, place, f"lower '{name}' onto {where}")
+    motion.hold(qpos, 0.0, GRIPPER_STEPS)
+    if wide_as_fingers:
+        qpos = slide_off(motion, qpos, place, onto)
+    motion.move(qpos, above_place, f"retreat from {where}")
+
+
+def release_spot(
+    motion: MotionPlanner, name: str, onto: str, grasp: np.ndarray, held_bottom: float, after: list[str] | None
+) -> Spot | None:
+    """Where `name`, held by `grasp`, is set down on a free spot of `onto` that the arm reaches from above or the
+    front (`placing_reach`), the first of: a spot shared with the objects `after` on a small top, head first into a
+    pot, a free spot with the hand as grasped, and one with the hand turned about the vertical; None where none."""
+    env = motion.env
+    reachable = placing_reach(motion, name, grasp)
+    return (
+        (shared_place(env, name, onto, grasp, held_bottom, reachable, after) if after is not None else None)
+        or head_first_place(env, name, onto, grasp, held_bottom, reachable)
+        or free_place(env, name, onto, grasp, held_bottom, reachable)
+        or turned_place(env, name, onto, grasp, held_bottom, reachable)
+    )
+
+
+def slide_off(motion: MotionPlanner, qpos: np.ndarray, place: np.ndarray, onto: str | None) -> np.ndarray:
+    """After letting go of an object as wide as the open fingers (a tuna can), move the hand SLIDE_OFF along the
+    closing direction, towards the middle of `onto`, so one pad pushes the object a little and the other comes off
+    it (lifted straight away, both pads would carry it up); the posture is kept where that cannot be planned."""
+    closing = quat_to_matrix(place[3:])[:, 1]
+    towards = (centre(motion.env, onto)[:2] - place[:2]) if onto is not None else -place[:2]
+    sign = 1.0 if float(closing[:2] @ towards) >= 0.0 else -1.0
+    try:
+        return motion.move(
+            qpos,
+            shifted(place, sign * SLIDE_OFF * closing * np.array([1.0, 1.0, 0.0])),
+            "slide the fingers off the object",
+        )
+    except OracleFailure:
+        return qpos
+
+
+# ------------------------------------------------------------------------------------------------ placing from the front
+def front_place_way(motion: MotionPlanner, name: str, grasp: np.ndarray, place: np.ndarray) -> np.ndarray | None:
+    """Where the TCP, holding `name` as grasped at `grasp`, waits in front of a place on a shelf that it cannot
+    be lowered to from high above: `place` raised by FRONT_PLACE_RISE and moved horizontally towards the robot
+    until the hand and the object are clear of every fixture's footprint. None without fixtures, or where the
+    hand would hit one on the way."""
+    if not motion.fixture_names:
+        return None
+    held = world_points(motion.env, name) - grasp[:3]
+    toward = -place[:2] / np.linalg.norm(place[:2])
+    return moved_out(raised(place, FRONT_PLACE_RISE), toward, fixture_boxes(motion.env), held)
+
+
+def placing_reach(motion: MotionPlanner, name: str, grasp: np.ndarray) -> Reachable:
+    """A test for the place samplers: whether the arm holding `name` (grasped at `grasp`) reaches the pose over a
+    place and lowers it straight from there, or else comes in horizontally from the front (`front_place_way`)."""
+
+    def reachable(over: np.ndarray, place: np.ndarray) -> bool:
+        if motion.can_lower(over, place):
+            return True
+        way = front_place_way(motion, name, grasp, place)
+        if way is None:
+            return False
+        status, postures = motion.ik(way, motion.current_qpos())
+        if status != "Success":
+            return False
+        start = motion.current_qpos()
+        start[:7] = postures[0][:7]
+        return motion.straight_chain(start, [raised(place, FRONT_PLACE_RISE), place]) is not None
+
+    return reachable
+
+
+def front_place(
+    motion: MotionPlanner, qpos: np.ndarray, name: str, way: np.ndarray, place: np.ndarray, where: str
+) -> None:
+    """Set the held object down on a high shelf from the front: carry it to `way` (see `front_place_way`), slide it
+    in horizontally over `place`, lower it, let go, and take the hand back up a little and out."""
+    qpos = motion.move_for_chain(
+        qpos, way, [raised(place, FRONT_PLACE_RISE), place], f"carry '{name}' in front of {where}"
+    )
+    qpos = motion.move_straight(qpos, raised(place, FRONT_PLACE_RISE), f"slide '{name}' in over {where}")
+    qpos = motion.move_straight(qpos, place, f"lower '{name}' onto {where}")
+    motion.hold(qpos, 0.0, GRIPPER_STEPS)
+    try:  # the object is let go: taking the hand out is a courtesy, not a must
+        qpos = motion.move_straight(qpos, raised(place, FRONT_PLACE_LEAVE), f"raise the hand off '{name}'")
+        motion.move_straight(qpos, raised(way, FRONT_PLACE_LEAVE - FRONT_PLACE_RISE), f"retreat from {where}")
+    except OracleFailure:
+        pass
+
+
+# ------------------------------------------------------------------------------------------------ off a shelf level
+def front_pick_and_place(
+    motion: MotionPlanner,
+    name: str,
+    onto: str | None = None,
+    at: tuple[float, float] | None = None,
+    centred: bool = False,
+    lift: float = 0.0,
+) -> None:
+    """Take object `name` off a shelf level under another one (`pick_and_place`'s destinations): the hand comes in
+    leaning out of the shelf (`side_grasps.front_grasps`), grasps, lifts the object off the level a little and
+    pulls it straight out, then carries it on. Grasps are tried in turn until one can be planned."""
+    grasps = front_grasps(motion.env, name)
+    if not grasps:
+        raise OracleFailure(
+            f"'{name}' is under a shelf level and no hand leaning in from the open side clears the shelf"
+        )
+    planned, failure = motion.mark(), None
+    for grasp in grasps:
+        try:
+            _front_attempt(motion, name, grasp, onto, at, centred, lift)
+            return
+        except OracleFailure as error:
+            failure = error
+            motion.rewind(planned)
+            motion.gripper = 0.0
+    raise failure
+
+
+def _front_attempt(
+    motion: MotionPlanner,
+    name: str,
+    grasp: FrontGrasp,
+    onto: str | None,
+    at: tuple[float, float] | None,
+    centred: bool,
+    lift: float,
+) -> None:
+    """The moves of `front_pick_and_place` with one front grasp."""
+    env = motion.env
+    out = pulled_out(env, name, grasp)
+    if out is None:
+        raise OracleFailure(f"cannot pull '{name}' out of the shelf: the hand would hit it")
+    held_offset = grasp.pose[:2] - centre(env, name)[:2]
+    held_bottom = grasp.pose[2] - object_bottom(env, name)
+    if onto is not None or at is not None:
+        spread = onto is not None and not centred
+        spot = free_place(env, name, onto, grasp.pose, held_bottom, motion.can_lower) if spread else None
+        place, above_place = (
+            spot if spot is not None else place_pose(env, name, onto, at, grasp.pose, held_bottom, held_offset)
+        )
+    qpos = motion.current_qpos()
+    qpos = motion.move(qpos, grasp.entry, f"reach in front of '{name}'", straight=False)
+    qpos = motion.move(qpos, grasp.approach, f"reach in towards '{name}'")
+    qpos = motion.move(qpos, grasp.pose, f"reach in to '{name}'")
+    motion.hold(qpos, 1.0, GRIPPER_STEPS)
+    qpos = motion.move(qpos, raised(grasp.pose, FRONT_LIFT), f"lift '{name}' off its level")
+    qpos = motion.move(qpos, out, f"pull '{name}' out of the shelf")
+    if onto is None and at is None:
+        motion.move(qpos, raised(out, lift), f"lift '{name}'")
+        return
+    qpos = motion.move(qpos, raised(out, LIFT_HEIGHT), f"lift '{name}'")
+    where = _where(onto, at)
+    qpos = motion.move(qpos, above_place, f"carry '{name}' over {where}", straight=False)
+    qpos = motion.move(qpos, place, f"lower '{name}' onto {where}")
+    motion.hold(qpos, 0.0, GRIPPER_STEPS)
+    motion.move(qpos, above_place, f"retreat from {where}")
+
+
+# ------------------------------------------------------------------------------------------------ heavy tools far away
+def far_tool(env: RoboLabEnv, name: str, grasp: np.ndarray) -> bool:
+    """Whether object `name` is a heavy or long tool and `grasp` (a TCP pose, robot frame) is beyond TOOL_REACH from
+    the robot's base (horizontally): it can be grasped there, but the arm can neither go APPROACH_HEIGHT above it
+    nor lift it straight out (held off its centre of mass, it turns in the pads)."""
+    if float(np.linalg.norm(grasp[:2])) <= TOOL_REACH:
+        return False
+    return is_heavy(env, name) or is_tool(env, name, world_points(env, name))
+
+
+def reachable_above(motion: MotionPlanner, grasp: np.ndarray, over: np.ndarray) -> np.ndarray:
+    """The pose a far tool's grasp is come down to from: `over` where the arm reaches it (inverse kinematics),
+    else the highest pose down to APPROACH_LOWEST over the grasp that it reaches, over the grasp or drawn back
+    towards the robot by one of APPROACH_BACKS; `over` where none is reached (the planner then says why)."""
+    toward = -grasp[:2] / np.linalg.norm(grasp[:2])
+    for height in np.arange(over[2], grasp[2] + APPROACH_LOWEST - 1e-6, -APPROACH_STEP):
+        for back in APPROACH_BACKS:
+            pose = grasp.copy()
+            pose[:2] += toward * back
+            pose[2] = height
+            status, _ = motion.ik(pose, motion.current_qpos(), IK_RETRIES)
+            if status == "Success":
+                return pose
+    return over
+
+
+def draw_nearer(motion: MotionPlanner, qpos: np.ndarray, grasp: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Queue a straight move of the hand holding a far tool (grasped at `grasp`) towards the robot, to TOOL_REACH
+    (at most DRAW_MAX) and DRAW_RISE up; returns the final joints and the TCP pose there (`qpos` and `grasp` where
+    that move cannot be planned)."""
+    distance = float(np.linalg.norm(grasp[:2]))
+    nearer = grasp.copy()
+    nearer[:2] *= max(TOOL_REACH, distance - DRAW_MAX) / distance
+    nearer[2] += DRAW_RISE
+    planned = motion.mark()
+    try:
+        return motion.move(qpos, nearer, f"draw '{name}' nearer"), nearer
+    except OracleFailure:
+        motion.rewind(planned)
+        return qpos, grasp
+
+
+# ------------------------------------------------------------------------------------------------ side holds
+def side_hold_pick_and_place(
+    motion: MotionPlanner,
+    name: str,
+    grips: list[tuple[np.ndarray, np.ndarray]],
+    tried: list[np.ndarray],
+    onto: str | None = None,
+    at: tuple[float, float] | None = None,
+) -> None:
+    """Take long tool `name` by its handle with the first of `grips` (side holds, `side_grasps.side_grips`) that has
+    a motion plan, starting after the holds in `tried` (those earlier plans used; the one used is added), and set
+    it down onto `onto` or the table at `at`; OracleFailure where none has a plan."""
+    first = min(len(tried), len(grips) - 1)
+    for grasp, approach in grips[first:] + grips[:first]:  # the next hold each time the job is planned again
+        planned = motion.mark()
+        try:
+            _side_hold_moves(motion, name, grasp, approach, onto, at)
+        except OracleFailure:
+            motion.rewind(planned)
+            continue
+        tried.append(grasp)
+        return
+    tried.append(grips[first][0])
+    raise OracleFailure(f"cannot hold '{name}' by its handle from the side: no motion plan for any hold")
+
+
+def _side_hold_moves(
+    motion: MotionPlanner,
+    name: str,
+    grasp: np.ndarray,
+    approach: np.ndarray,
+    onto: str | None,
+    at: tuple[float, float] | None,
+) -> None:
+    """Queue the moves of `side_hold_pick_and_place` with the object held at TCP pose `grasp`, the hand coming in
+    along `approach`: down beside the handle from the height the tool will be lifted to (so that the arm is posed
+    to lift it straight back up), in, closed, lifted in straight steps until the tool hanging straight down from the
+    grip would clear its container, carried level, lowered, let go, and backed out the way it came."""
+    env = motion.env
+    held_bottom = grasp[2] - object_bottom(env, name)
+    held_offset = grasp[:2] - centre(env, name)[:2]
+    place, _ = place_pose(env, name, onto, at, grasp, held_bottom, held_offset)
+    container = container_below(env, name)
+    rim = float(world_points(env, container)[:, 2].max()) if container is not None else 0.0
+    lifted = grasp.copy()
+    hanging = float(np.linalg.norm(world_points(env, name) - grasp[:3], axis=1).max())  # should it swing down
+    lifted[2] = max(grasp[2] + SIDE_LIFT_MIN, rim + SIDE_LIFT_CLEARANCE + hanging)
+    qpos = motion.current_qpos()
+    for distance in SIDE_APPROACHES:
+        start = grasp.copy()
+        start[:3] -= approach * distance
+        high = start.copy()
+        high[2] = lifted[2]
+        planned = motion.mark()
+        try:  # down from the height of the lift, so that the arm is posed to lift the tool straight back up
+            qpos = motion.move(qpos, high, f"reach above beside the handle of '{name}'", straight=False)
+            qpos, _ = _rise(motion, qpos, high, start[2], f"reach beside the handle of '{name}'")
+            break
+        except OracleFailure:
+            motion.rewind(planned)
+        try:
+            qpos = motion.move(qpos, start, f"reach beside the handle of '{name}'", straight=False)
+            break
+        except OracleFailure:
+            if distance == SIDE_APPROACHES[-1]:
+                raise
+    qpos = motion.move_straight(qpos, grasp, f"move in around the handle of '{name}'")
+    motion.hold(qpos, 1.0, GRIPPER_STEPS)
+    qpos, lifted = _rise(motion, qpos, grasp, lifted[2], f"lift '{name}' by its handle")
+    way = lifted.copy()
+    way[:2] = place[:2]
+    try:
+        qpos = motion.move_straight(qpos, way, f"carry '{name}' by its handle")
+    except OracleFailure:
+        qpos = motion.move(qpos, way, f"carry '{name}' by its handle")
+    qpos, _ = _rise(motion, qpos, way, place[2], f"lower '{name}'")
+    motion.hold(qpos, 0.0, GRIPPER_STEPS)
+    back = place.copy()
+    back[:3] -= approach * SIDE_BACK_OUT
+    try:
+        qpos = motion.move_straight(qpos, back, f"back out from '{name}'")
+    except OracleFailure:
+        pass
+    up = back.copy()
+    up[2] += SIDE_RETREAT
+    try:
+        motion.move(qpos, up, f"retreat from '{name}'")
+    except OracleFailure:
+        pass
+
+
+def _rise(
+    motion: MotionPlanner, qpos: np.ndarray, pose: np.ndarray, height: float, what: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Queue a move of the TCP from `pose` straight up or down to `height`, in steps of RISE_STEP (each a straight
+    move where one is found, else any move to it; a lift stops short where it has risen SIDE_LIFT_MIN and the next
+    step would swing a joint by more than MAX_SWING); returns the final joints and TCP pose."""
+    step, sign = pose.copy(), 1.0 if height >= pose[2] else -1.0
+    while sign * (height - step[2]) > 1e-6:
+        previous, step = step, step.copy()
+        step[2] = step[2] + sign * min(RISE_STEP, sign * (height - step[2]))
+        try:
+            qpos = motion.move_straight(qpos, step, what)
+        except OracleFailure:
+            planned = motion.mark()
+            moved = motion.move(qpos, step, what)
+            if sign > 0 and previous[2] - pose[2] >= SIDE_LIFT_MIN and np.abs(moved[:7] - qpos[:7]).max() > MAX_SWING:
+                motion.rewind(planned)  # high enough: no swing of the arm to go higher
+                return qpos, previous
+            qpos = moved
+    return qpos, step
+
+
+# ------------------------------------------------------------------------------------------------ standing up
+def stand_upright(motion: MotionPlanner, name: str) -> None:
+    """Stand a lying object up. A lying container is held by the top of its rim (one finger inside) and tipped
+    up about the lowest point of its base, which stays on the table; another object is first held by the narrow
+    part at its top end and tipped the same way, else grasped from above across its body, lifted, turned so its up
+    axis points up, and set down where it lay."""
+    env = motion.env
+    up = env.eval_context.up_axis(name)[0].cpu().numpy().astype(np.float64)
+    flat = np.array([up[0], up[1], 0.0])
+    if np.linalg.norm(flat) < 1e-3:
+        raise OracleFailure(f"'{name}' is upside down: turning it over is not supported")
+    flat /= np.linalg.norm(flat)
+    planned = motion.mark()
+    if env.eval_context.entries[name].is_container:
+        grasp = rim_grasp(env, name, up)
+        # the hand may hold the rim either way up; near joint limits only one of them can be planned; turned
+        # about the vertical where the hand would meet a neighbour on the line of the container's axis
+        attempts = [
+            lambda g=g: pivot_upright(motion, name, up, g)
+            for turned in turned_rim_grasps(env, name, grasp)
+            for g in (turned, rolled(turned))
+        ]
+    else:
+        closing = np.cross([0.0, 0.0, 1.0], flat)  # across the body, horizontal: the object turns about this axis
+        attempts = [lambda c=c: lift_and_turn_upright(motion, name, up, c) for c in (closing, -closing)]
+        end = end_grasp(env, name, up)  # first: held by the narrow part at its top end and tipped up about its base
+        if end is not None:
+            attempts[:0] = [
+                lambda g=g: pivot_upright(motion, name, up, g, backing=np.array([0.0, 0.0, 1.0]))
+                for g in (end, rolled(end))
+            ]
+    for attempt, plan in enumerate(attempts):
+        try:
+            plan()
+            return
+        except OracleFailure:
+            motion.rewind(planned)
+            if attempt == len(attempts) - 1:
+                raise
+
+
+def pivot_upright(
+    motion: MotionPlanner, name: str, up: np.ndarray, grasp: np.ndarray, backing: np.ndarray | None = None
+) -> None:
+    """Hold a lying object by `grasp` (a container's rim, reached straight through its opening; or any grasp
+    reached straight along `backing`, the direction the hand backs away from it) and tip it up about the lowest
+    point of its base, which stays on the table, then let go and lift the hand. The arm posture at the grasp is
+    chosen so that the whole tipping motion is one chain of straight moves."""
+    env = motion.env
+    points = world_points(env, name)
+    base_end = points[points @ up < (points @ up).min() + BASE_BAND]
+    pivot = base_end[base_end[:, 2].argmin()]  # where the base touches the table: it stays there
+    axis = np.cross(up, [0.0, 0.0, 1.0])
+    angle = np.arccos(np.clip(up[2], -1.0, 1.0))
+    hand = quat_to_matrix(grasp[3:])
+    tipping = []
+    for step in range(1, PIVOT_STEPS + 1):
+        turn = rotation_about(axis, angle * step / PIVOT_STEPS)
+        tipping.append(np.concatenate([pivot + turn @ (grasp[:3] - pivot), matrix_to_quaternion(turn @ hand)]))
+    qpos = motion.current_qpos()
+    status, postures = motion.ik(grasp, qpos, IK_RETRIES)
+    if status != "Success":
+        raise OracleFailure(f"cannot reach the rim of '{name}': {status}")
+    for posture in sorted(postures, key=lambda p: np.abs(p[:7] - qpos[:7]).sum()):
+        at_grasp = qpos.copy()
+        at_grasp[:7] = posture[:7]
+        tip_paths = motion.straight_chain(at_grasp, tipping)
+        outside = shifted(grasp, (up if backing is None else backing) * RIM_APPROACH)
+        high = raised(outside, APPROACH_HEIGHT) if backing is None else above(env, outside, APPROACH_HEIGHT, 0.0)
+        back_out = motion.straight_chain(at_grasp, [outside, high])
+        if tip_paths is not None and back_out is not None:
+            break
+    else:
+        raise OracleFailure(f"cannot tip '{name}' up about its base: no arm posture allows the straight moves")
+    # come in the way the hand would back out: down beside the opening, then straight in
+    above_outside = at_grasp.copy()
+    above_outside[:7] = back_out[-1][-1]
+    result = motion.plan_to_joints([above_outside], qpos)
+    if result["status"] != "Success":
+        raise OracleFailure(f"cannot reach the opening of '{name}': no motion plan ({result['status']})")
+    motion.queue(qpos, result["position"])
+    way_in = np.concatenate([back_out[1][::-1], back_out[0][::-1][1:], [posture[:7]]])
+    motion.queue(above_outside, way_in)
+    motion.hold(at_grasp, 1.0, GRIPPER_STEPS)
+    for path in tip_paths:
+        motion.queue(at_grasp, path)
+    final = at_grasp.copy()
+    final[:7] = tip_paths[-1][-1]
+    motion.hold(final, 0.0, GRIPPER_STEPS)
+    try:  # the object stands and is let go: lifting the hand away is a courtesy, not a must
+        motion.move(final, raised(tipping[-1], APPROACH_HEIGHT), f"lift the hand out of '{name}'")
+    except OracleFailure:
+        pass
+
+
+def lift_and_turn_upright(motion: MotionPlanner, name: str, up: np.ndarray, closing: np.ndarray) -> None:
+    """Grasp `name` from above with the fingers closing along `closing`, lift it, tip its up axis to world z
+    with the hand turned to point away from the robot, set it down where it lay and back off."""
+    env = motion.env
+    grasp = grasp_pose(env, name, closing=closing, keep_sign=True)
+    qpos = motion.current_qpos()
+    qpos = motion.move(qpos, raised(grasp, APPROACH_HEIGHT), f"reach above '{name}'", straight=False)
+    qpos = motion.move(qpos, grasp, f"descend to '{name}'")
+    motion.hold(qpos, 1.0, GRIPPER_STEPS)
+    qpos = motion.move(qpos, raised(grasp, LIFT_HEIGHT), f"lift '{name}'")
+    tip = rotation_between(up, np.array([0.0, 0.0, 1.0]))
+    hand_axis = tip @ quat_to_matrix(grasp[3:])[:, 2]  # the fingers' direction after tipping
+    outward = np.array([grasp[0], grasp[1], 0.0]) / np.linalg.norm(grasp[:2])
+    turn = rotation_between(np.array([hand_axis[0], hand_axis[1], 0.0]), outward)
+    final_rotation = turn @ tip @ quat_to_matrix(grasp[3:])
+    object_points = world_points(env, name)
+    lying_centre = (object_points.max(axis=0) + object_points.min(axis=0)) / 2
+    object_in_hand = (object_points - grasp[:3]) @ (turn @ tip).T  # object points relative to the TCP, turned
+    middle = (object_in_hand.max(axis=0) + object_in_hand.min(axis=0)) / 2
+    target_xy = lying_centre[:2] - middle[:2]  # the object stands where it lay
+    z = RELEASE_CLEARANCE - object_in_hand[:, 2].min()
+    stand = np.concatenate([[target_xy[0], target_xy[1], z], matrix_to_quaternion(final_rotation)])
+    qpos = motion.move(qpos, raised(stand, APPROACH_HEIGHT), f"turn '{name}' upright", straight=False)
+    qpos = motion.move(qpos, stand, f"set '{name}' down upright")
+    motion.hold(qpos, 0.0, GRIPPER_STEPS)
+    back = stand.copy()
+    back[:3] += -final_rotation[:, 2] * BACK_OFF + np.array([0.0, 0.0, BACK_OFF])  # back along the fingers and up
+    try:  # the object stands and is let go: moving the hand away is a courtesy, not a must
+        qpos = motion.move(qpos, back, f"back off from '{name}'")
+        motion.move(qpos, raised(back, APPROACH_HEIGHT), f"raise the hand above '{name}'")
+    except OracleFailure:
+        pass
