@@ -131,12 +131,13 @@ Hold = tuple[float, float, float, float]  # TCP height, width closed on, fingers
 
 @dataclass(frozen=True)
 class Candidate:
-    """A top-down grasp candidate: the TCP's position (x, y) and height, the closing direction (unit x, y) and
-    its score."""
+    """A top-down grasp candidate: the TCP's position (x, y) and height, the closing direction (unit x, y), the
+    width the fingers close on and its score."""
 
     xy: np.ndarray
     z: float
     closing: np.ndarray
+    width: float
     score: GraspScore
 
 
@@ -334,7 +335,7 @@ def across_candidates(
                 moved=shift != 0.0 or turn_rank > 0,
                 cost=grasp_cost(shift, turn_rank, fingers, body, width),
             )
-            yield Candidate(xy, z, direction, score)
+            yield Candidate(xy, z, direction, width, score)
 
 
 def higher_hold(slab: np.ndarray, closing: np.ndarray, heights: Grid | None, xy: np.ndarray, lower: Hold) -> Hold:
@@ -392,7 +393,7 @@ def centred_grasp(
                 cost=grasp_cost(shift, turn_rank, fingers, body),
             )
             if best is None or score.key < best.score.key:
-                best = Candidate(xy, z, direction, score)
+                best = Candidate(xy, z, direction, width, score)
     if best is None or best.score.blocked > 0.0:
         return None
     return best.xy, best.z, best.closing

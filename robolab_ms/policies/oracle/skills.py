@@ -191,7 +191,7 @@ def release_spot(
 
 
 def slide_off(motion: MotionPlanner, qpos: np.ndarray, place: np.ndarray, onto: str | None) -> np.ndarray:
-    """After letting go of an object as wide as the open fingers (a tuna can), move the hand SLIDE_OFF along the
+    """After letting go of an object as wide as the open fingers (a can), move the hand SLIDE_OFF along the
     closing direction, towards the middle of `onto`, so one pad pushes the object a little and the other comes off
     it (lifted straight away, both pads would carry it up); the posture is kept where that cannot be planned."""
     closing = quat_to_matrix(place[3:])[:, 1]

@@ -1,0 +1,191 @@
+"""The oracle's layers on their own, not whole tasks: the top-down grasp generator and its scorer on a box of known
+size (no simulator), and, on the PredicateLab fixture scene (a bin, a plate, a bowl, a mug and three blocks), the
+world view, the place samplers, the motion planner's inverse kinematics and paths, and the pick-and-place skill
+putting the red block into the bin."""
+
+import numpy as np
+import pytest
+from helpers import FIXTURES
+
+from robolab_ms.policies.oracle.clearance import APPROACH_HEIGHT
+from robolab_ms.policies.oracle.geometry import down_quaternion, quat_to_matrix, raised
+from robolab_ms.policies.oracle.grasps import (
+    FINGERTIP_CLEARANCE,
+    across_candidates,
+    closing_directions,
+    grasp_pose,
+)
+from robolab_ms.policies.oracle.gripper import MAX_GRASP_WIDTH, OPEN_FINGER_GAP, pad_drop
+from robolab_ms.policies.oracle.scoring import FINGER_CLASH_TOLERANCE, FINGER_SNAG, hand_clash
+
+BOX = (0.04, 0.06, 0.05)  # m along x, y, z: narrowest along x
+
+
+def box_points(size=BOX, step: float = 0.005) -> np.ndarray:
+    """Points on the surface of a box standing on the table at the origin."""
+    axes = [np.arange(-s / 2, s / 2 + 1e-9, step) for s in size[:2]] + [np.arange(0.0, size[2] + 1e-9, step)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    low, high = np.array([-size[0] / 2, -size[1] / 2, 0.0]), np.array([size[0] / 2, size[1] / 2, size[2]])
+    on_face = np.any(np.isclose(grid, low) | np.isclose(grid, high), axis=1)
+    return grid[on_face]
+
+
+def candidates(points: np.ndarray, heights=None, failed=()) -> list:
+    """The top-down candidates for the object of `points` centred on its footprint (no simulator: the generator
+    consults the scene only where a finger clashes beyond the tolerance, which these tests keep below)."""
+    middle = (points.max(axis=0) + points.min(axis=0)) / 2
+    directions = closing_directions(points)
+    bottom = float(points[:, 2].min())
+    return list(
+        across_candidates(None, "box", points, None, middle, directions, bottom, heights, False, False, list(failed))
+    )
+
+
+def best(found: list):
+    return min(found, key=lambda candidate: candidate.score.key)
+
+
+def test_a_box_is_closed_on_across_its_narrow_side_with_room_in_the_open_fingers():
+    points = box_points()
+    found = candidates(points)
+    assert found and all(candidate.width < MAX_GRASP_WIDTH < OPEN_FINGER_GAP for candidate in found)
+    chosen = best(found)
+    assert abs(float(chosen.closing @ [1.0, 0.0])) == pytest.approx(1.0)  # across the 4-cm side
+    assert chosen.width == pytest.approx(BOX[0], abs=1e-6)
+    assert np.allclose(chosen.xy, 0.0, atol=1e-9) and not chosen.score.moved
+    assert BOX[2] > chosen.z >= pad_drop(chosen.width) + FINGERTIP_CLEARANCE - 1e-9  # on it, the pads off the table
+    rotation = quat_to_matrix(down_quaternion(chosen.closing))
+    assert np.allclose(rotation[:, 2], [0.0, 0.0, -1.0]) and np.allclose(rotation[:2, 1], chosen.closing)
+
+
+def test_the_scorer_ranks_open_fingers_on_a_neighbour_below_a_grasp_that_clears():
+    """A low neighbour (3 cm) runs along the box's +x side: fingers closing along x come down on it (a snag the hand
+    would push through, but one that pinches the neighbour), so the grasp turned to close along y wins."""
+    points = box_points()
+    steps = np.arange(-0.2, 0.2 + 1e-9, 0.008)
+    cells = np.stack(np.meshgrid(steps, steps), axis=-1).reshape(-1, 2)
+    tops = np.where((cells[:, 0] > 0.035) & (cells[:, 0] < 0.06), 0.03, -np.inf)
+    found = candidates(points, heights=(cells, tops))
+    across_x = next(c for c in found if abs(float(c.closing @ [1.0, 0.0])) > 0.999 and not c.score.moved)
+    fingers, _ = hand_clash((cells, tops), across_x.xy, across_x.closing, across_x.z)
+    assert FINGER_SNAG < fingers < FINGER_CLASH_TOLERANCE and across_x.score.snag
+    chosen = best(found)
+    assert abs(float(chosen.closing @ [0.0, 1.0])) == pytest.approx(1.0) and not chosen.score.snag
+    assert chosen.score.key < across_x.score.key
+    assert hand_clash((cells, tops), chosen.xy, chosen.closing, chosen.z)[0] == 0.0
+
+
+def test_a_grasp_near_one_that_failed_comes_last():
+    points = box_points()
+    first = best(candidates(points))
+    failed = np.concatenate([[*first.xy, first.z], down_quaternion(first.closing)])
+    again = best(candidates(points, failed=[failed]))
+    assert not again.score.failed_nearby
+    assert np.linalg.norm(again.xy - first.xy) > 0.02 or abs(float(again.closing @ first.closing)) < 0.9
+
+
+# ------------------------------------------------------------------------------------------------ on a scene
+@pytest.fixture(scope="module")
+def lab():
+    from robolab_ms.envs import RoboLabEnv
+
+    env = RoboLabEnv(task=str(FIXTURES / "PredicateLab.yaml"), obs_mode="state_dict", render_backend="cpu")
+    env.reset(seed=0)
+    yield env
+    env.close()
+
+
+@pytest.fixture
+def motion(lab):
+    from robolab_ms.policies.oracle.motion import MotionPlanner, seed_inverse_kinematics
+
+    lab.reset(seed=0)
+    lab.eval_context.refresh()
+    seed_inverse_kinematics(0)
+    planner = MotionPlanner(lab)
+    planner.bind(lab)
+    planner.sync_fixtures()
+    return planner
+
+
+def test_the_world_view_reads_sizes_supports_and_containers(lab):
+    from robolab_ms.policies.oracle.world import (
+        centre,
+        container_below,
+        is_container,
+        lying_container,
+        standing_container,
+        world_points,
+    )
+
+    lab.reset(seed=0)
+    block = world_points(lab, "red")
+    assert np.allclose(np.ptp(block, axis=0), np.ptp(block, axis=0).max(), atol=0.002)  # a cube
+    assert block[:, 2].min() == pytest.approx(0.0, abs=0.005)  # on the table
+    assert is_container(lab, "bin") and standing_container(lab, "bin") and not lying_container(lab, "bin")
+    assert not is_container(lab, "red") and container_below(lab, "red") is None
+    assert np.allclose(centre(lab, "red")[:2], block[:, :2].mean(axis=0), atol=0.005)
+
+
+def test_the_place_samplers_find_a_free_spot_in_the_bin_and_left_of_the_plate(motion):
+    from robolab_ms.policies.oracle.places import (
+        RELEASE_CLEARANCE,
+        SIDE_OFFSET,
+        SPOT_MARGIN,
+        free_place,
+        free_spot,
+        spot_beside,
+    )
+    from robolab_ms.policies.oracle.world import centre, object_bottom, world_points
+
+    lab = motion.env
+    grasp = grasp_pose(lab, "red")
+    held_bottom = grasp[2] - object_bottom(lab, "red")
+    place, over = free_place(lab, "red", "bin", grasp, held_bottom, motion.can_lower)
+    bin_points, block = world_points(lab, "bin"), world_points(lab, "red") - grasp[:3]
+    low, high = bin_points[:, :2].min(axis=0), bin_points[:, :2].max(axis=0)
+    released = block + place[:3]  # the block as held, at the release
+    assert np.all(released[:, :2] > low) and np.all(released[:, :2] < high)  # over the bin's floor
+    assert released[:, 2].min() == pytest.approx(bin_points[:, 2].min() + RELEASE_CLEARANCE, abs=0.02)
+    assert over[2] > place[2] and np.allclose(over[:2], place[:2])
+    assert motion.can_lower(over, place)
+
+    left = spot_beside(lab, "plate", "left_of")
+    assert np.allclose(left, centre(lab, "plate")[:2] + [0.0, SIDE_OFFSET])
+    box = free_spot(lab, "red", avoid=["red"], taken=[], near=np.asarray(left))
+    for other in ("bin", "plate", "bowl", "mug", "green", "blue"):
+        points = world_points(lab, other)[:, :2]
+        gaps = np.maximum(points.min(axis=0) - box[2:], box[:2] - points.max(axis=0))
+        assert gaps.max() >= SPOT_MARGIN - 1e-9, other
+    assert (box[1] + box[3]) / 2 > centre(lab, "plate")[1]  # on the plate's left (+y)
+
+
+def test_the_motion_planner_reaches_a_pose_on_a_collision_free_path(motion):
+    target = raised(grasp_pose(motion.env, "red"), APPROACH_HEIGHT)
+    start = motion.current_qpos()
+    status, postures = motion.ik(target, start)
+    assert status == "Success"
+    reached = start.copy()
+    reached[:7] = postures[0][:7]
+    assert np.allclose(motion.tcp_at(reached)[:3], target[:3], atol=1e-3)
+    end = motion.move(start, target, "reach above the block")
+    assert np.allclose(motion.tcp_at(end)[:3], target[:3], atol=0.01)
+    assert len(motion.actions) > 0 and all(action[7] == 0.0 for action in motion.actions)
+    posture = start.copy()
+    for action in motion.actions:
+        posture[:7] = action[:7]
+        assert not motion.collides(posture)
+
+
+def test_the_pick_and_place_skill_puts_the_block_in_the_bin(motion):
+    from robolab_ms.policies.oracle.skills import pick_and_place
+
+    lab = motion.env
+    pick_and_place(motion, "red", grasp_pose(lab, "red"), onto="bin")
+    assert any(action[7] == 1.0 for action in motion.actions)  # it closes the hand on the way
+    while motion.actions:
+        lab.step(motion.actions.popleft())
+    hold = motion.action(motion.current_qpos(), 0.0)
+    for _ in range(10):
+        lab.step(hold)
+    assert bool(lab.evaluate()["success"][0])
