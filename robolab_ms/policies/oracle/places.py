@@ -14,6 +14,7 @@ already there:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -132,6 +133,53 @@ def shelf_exit_spot(env: RoboLabEnv, name: str) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------------ in or on objects
+@dataclass(frozen=True)
+class TargetSurface:
+    """What vertical rays (passing through the robot and the held object) meet on and around `target`, the object
+    a held object goes onto: the middle of the target's footprint, cell centres (K, 2), the heights (K,) and names
+    of what is hit (None: the table or nothing), which cells are the target's, its lowest level among them, and
+    its flat cells (no more than PLACE_FLATNESS above that level: a bin's floor, a plate)."""
+
+    target: str
+    middle: np.ndarray
+    cells: np.ndarray
+    heights: np.ndarray
+    names: list[str | None]
+    on_target: np.ndarray
+    level: float
+    flat: np.ndarray
+
+    @property
+    def others(self) -> np.ndarray:
+        """Which cells hold another object (already in or on the target, or beside it)."""
+        return np.array([other is not None and other != self.target for other in self.names])
+
+
+def map_target(
+    env: RoboLabEnv,
+    name: str,
+    onto: str,
+    beyond: float = 0.0,
+    cell: float = PLACE_CELL,
+    radius: float | None = None,
+) -> TargetSurface | None:
+    """The map of `onto`'s surface for setting `name` down on it: a grid of `cell` spacing around the middle of its
+    footprint, as far as its footprint reaches and `beyond` (or `radius` from the middle); None where no ray meets
+    `onto` (off the CPU simulator there are no rays: callers check first)."""
+    target = world_points(env, onto)
+    low, high = target[:, :2].min(axis=0), target[:, :2].max(axis=0)
+    middle = (low + high) / 2
+    if radius is None:
+        radius = float(np.max(high - middle)) + beyond
+    cells, heights, names = surface_grid(env, name, middle, radius, cell)
+    on_target = np.array([other == onto for other in names])
+    if not on_target.any():
+        return None
+    level = heights[on_target].min()
+    flat = on_target & (heights <= level + PLACE_FLATNESS)
+    return TargetSurface(onto, middle, cells, heights, names, on_target, level, flat)
+
+
 def place_pose(
     env: RoboLabEnv,
     name: str,
@@ -197,18 +245,18 @@ def free_place(
     if env.scene.gpu_sim_enabled:
         return None
     env.eval_context.refresh()
-    target = world_points(env, onto)
-    low, high = target[:, :2].min(axis=0), target[:, :2].max(axis=0)
-    middle = (low + high) / 2
     held_points = world_points(env, name)[:, :2] - grasp[:2]  # the held object relative to the TCP
-    radius = float(np.max(high - middle)) + PLACE_CELL
-    cells, heights, names = surface_grid(env, name, middle, radius, PLACE_CELL)
-    on_target = np.array([other == onto for other in names])
-    if not on_target.any():
+    surface = map_target(env, name, onto, beyond=PLACE_CELL)
+    if surface is None:
         return None
-    level = heights[on_target].min()
-    flat = on_target & (heights <= level + PLACE_FLATNESS)
-    others = np.array([other is not None and other != onto for other in names])
+    middle, cells, heights, on_target, flat = (
+        surface.middle,
+        surface.cells,
+        surface.heights,
+        surface.on_target,
+        surface.flat,
+    )
+    others = surface.others
     is_container = env.eval_context.entries[onto].is_container
     free = []  # release poses, middlemost first
     # the object and the open fingers with room around; where nothing has that room, the object alone; the hand
@@ -384,14 +432,10 @@ def head_first_place(
     env.eval_context.refresh()
     held = world_points(env, name)
     length = float(np.ptp(held[:, :2] @ towards))
-    target = world_points(env, onto)
-    middle = (target[:, :2].max(axis=0) + target[:, :2].min(axis=0)) / 2
-    cells, heights, names = surface_grid(env, name, middle, length + HEAD_FIRST_CELL, HEAD_FIRST_CELL)
-    on_target = np.array([other == onto for other in names])
-    if not on_target.any():
+    surface = map_target(env, name, onto, cell=HEAD_FIRST_CELL, radius=length + HEAD_FIRST_CELL)
+    if surface is None:
         return None
-    level = heights[on_target].min()
-    floor = on_target & (heights <= level + PLACE_FLATNESS)
+    middle, cells, heights, floor = surface.middle, surface.cells, surface.heights, surface.flat
     floor_radius = float(np.linalg.norm(cells[floor] - middle, axis=1).max()) if floor.any() else 0.0
     if length <= 2 * floor_radius:  # it lies flat on the floor: free_place sets it down
         return None
@@ -495,17 +539,12 @@ def shared_place(
     next spot sweeps past what stands nearer it); carried in CARRY_CLEARANCE above the tallest thing there. None
     where there is no such pair of spots or none is reached."""
     env.eval_context.refresh()
-    target = world_points(env, onto)
-    low, high = target[:, :2].min(axis=0), target[:, :2].max(axis=0)
-    middle = (low + high) / 2
-    radius = float(np.max(high - middle)) + SHARE_REACH
-    cells, heights, names = surface_grid(env, name, middle, radius, PLACE_CELL)
-    on_target = np.array([other == onto for other in names])
-    if not on_target.any():
+    surface = map_target(env, name, onto, beyond=SHARE_REACH)
+    if surface is None:
         return None
-    level = heights[on_target].min()
-    flat = on_target & (heights <= level + PLACE_FLATNESS)
-    blocked = np.array([other is not None and other != onto for other in names]) & (heights > level - SHARE_BLOCK_DEPTH)
+    middle, cells, heights, level = surface.middle, surface.cells, surface.heights, surface.level
+    on_target, flat = surface.on_target, surface.flat
+    blocked = surface.others & (heights > level - SHARE_BLOCK_DEPTH)
 
     held = world_points(env, name)[:, :2] - grasp[:2]
     body_offset = (held.min(axis=0) + held.max(axis=0)) / 2
