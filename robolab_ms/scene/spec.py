@@ -633,6 +633,12 @@ def load_scene(name: str, near: Path | None = None) -> SceneSpec:
     return read_scene(path)
 
 
+def load_scene_or_file(scene: str) -> SceneSpec:
+    """A scene given by its file (an existing .yaml file) or by its name, as `load_scene` finds it."""
+    path = Path(scene)
+    return read_scene(path) if path.suffix == ".yaml" and path.is_file() else load_scene(scene)
+
+
 def resting_height(points: np.ndarray, tilt: Sequence[float]) -> float:
     """The height of the object's origin that puts the lowest of its collision points (object frame, (N, 3)),
     turned by `tilt`, on the table top. A yaw about the world z does not change it."""
