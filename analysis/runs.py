@@ -49,7 +49,6 @@ TASK_COLUMNS = (
     "num_objects",
     "episode_seconds",
 )
-DIFFICULTY_ORDER = ("simple", "moderate", "complex")
 
 
 @dataclass

@@ -46,7 +46,7 @@ class Leaderboard:
 def build_leaderboard(runs: RunSet, real_world: Sequence[RealWorldResult] | None = None) -> Leaderboard:
     """Rank the policies of `runs` and break their success down by axis, difficulty and task."""
     from robolab_ms.analysis.report import breakdown
-    from robolab_ms.analysis.runs import DIFFICULTY_ORDER
+    from robolab_ms.tasks.spec import DIFFICULTIES
 
     episodes = runs.episodes
     ranking = rank_policies(episodes)
@@ -65,7 +65,7 @@ def build_leaderboard(runs: RunSet, real_world: Sequence[RealWorldResult] | None
     board = Leaderboard(
         ranking=ranking,
         axes=group_rates(episodes, "axis", ("visual", "relational", "procedural")),
-        difficulties=group_rates(episodes, "difficulty", DIFFICULTY_ORDER),
+        difficulties=group_rates(episodes, "difficulty", DIFFICULTIES),
         tasks=tasks,
         per_task=per_task,
         task_rates=task_rates,
