@@ -43,7 +43,8 @@ def write_site(
     videos: str = "copy",
     title: str = "RoboLab leaderboard",
 ) -> Leaderboard:
-    """Write the leaderboard site and its Markdown copy into `out` (layout in the package docstring, `robolab_ms.analysis.leaderboard`)."""
+    """Write the leaderboard site and its Markdown copy into `out` (the layout: `robolab_ms.analysis.leaderboard`'s
+    docstring)."""
     if videos not in VIDEO_MODES:
         raise RoboLabError(f"videos mode '{videos}': give one of {', '.join(VIDEO_MODES)}")
     site = _prepare_site(Path(out))

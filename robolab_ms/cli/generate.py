@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from robolab_ms.physics import MAX_DRIFT_M, STABILITY_PHYSICS_STEPS
+
 
 def add_generate_command(commands) -> None:
     """Add `robolab generate` to the commands."""
@@ -20,8 +22,9 @@ def add_generate_command(commands) -> None:
         help="a scene file from a prompt: relations, solvers, physics settle, feedback rounds",
         description="The model (--llm openai or offline) picks catalog objects and placement relations; a physical "
         "solver puts objects on, in and stacked on others, a spatial solver places the rest in the reachable area; "
-        "a physics settle (no object may move more than 2 cm in 300 steps) checks it. Failures go back to the model "
-        "for at most --rounds rounds. Writes FILE.yaml, its preview FILE.png and FILE.transcript.json.",
+        f"a physics settle (no object may move more than {MAX_DRIFT_M * 100:.0f} cm in {STABILITY_PHYSICS_STEPS} "
+        "steps) checks it. Failures go back to the model for at most --rounds rounds. Writes FILE.yaml, its preview "
+        "FILE.png and FILE.transcript.json.",
     )
     generation.add_scene_arguments(scene)
     scene.set_defaults(run=generation.run_scene)

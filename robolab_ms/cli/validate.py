@@ -7,6 +7,7 @@ import sys
 
 from robolab_ms.cli.common import TASK_HELP, task_arguments, vary_text
 from robolab_ms.errors import RoboLabError
+from robolab_ms.physics import MAX_DRIFT_M, STABILITY_PHYSICS_STEPS
 
 
 def add_validate_command(commands, content: argparse.ArgumentParser) -> None:
@@ -15,11 +16,12 @@ def add_validate_command(commands, content: argparse.ArgumentParser) -> None:
         "validate",
         parents=[content],
         help="check tasks: stable at rest, not solved at reset, not solved by chance, solved by the oracle",
-        description="For each task over SEEDS seeds: the largest object drift over 300 physics steps at rest "
-        "(max 2 cm), success right after reset (must be none), the random policy's success rate (max 10%) and "
-        "the oracle's (min 90%) with its time per episode. Writes OUT/validation.csv and OUT/validation.md, the "
-        "episodes to OUT/episodes.jsonl (a rerun resumes), and exits with status 1 when a task fails a check. "
-        "With --workers N the checks and episodes of all tasks run in N processes (docs/scaling.md).",
+        description=f"For each task over SEEDS seeds: the largest object drift over {STABILITY_PHYSICS_STEPS} physics "
+        f"steps at rest (max {MAX_DRIFT_M * 100:.0f} cm), success right after reset (must be none), the random "
+        "policy's success rate (max 10%) and the oracle's (min 90%) with its time per episode. Writes "
+        "OUT/validation.csv and OUT/validation.md, the episodes to OUT/episodes.jsonl (a rerun resumes), and exits "
+        "with status 1 when a task fails a check. With --workers N the checks and episodes of all tasks run in N "
+        "processes (docs/scaling.md).",
     )
     validate.add_argument("--task", nargs="+", metavar="TASK", help=TASK_HELP)
     validate.add_argument("--all", action="store_true", help="validate every task")
