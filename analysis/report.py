@@ -32,13 +32,14 @@ import numpy as np
 import pandas as pd
 
 from robolab_ms.analysis.analyze import DEFAULT_BINS
-from robolab_ms.analysis.runs import DIFFICULTY_ORDER, TASK_COLUMNS, explode_column
+from robolab_ms.analysis.runs import TASK_COLUMNS, explode_column
 from robolab_ms.analysis.tables import LEGACY_METRIC_COLUMNS as _LEGACY_METRIC_SOURCES
 from robolab_ms.analysis.tables import METRIC_COLUMNS as _METRIC_SOURCES
 from robolab_ms.analysis.tables import metric_columns, success_interval
 from robolab_ms.errors import RoboLabError, did_you_mean, make_folder
 from robolab_ms.eval.results import EpisodeResult
 from robolab_ms.tasks.events import EVENT_TYPES
+from robolab_ms.tasks.spec import DIFFICULTIES
 
 LIST_COLUMNS = ("axes", "attributes")
 # grouping name -> the episode column it reads
@@ -162,7 +163,7 @@ def group_column(episodes: pd.DataFrame, name: str, bins: int = DEFAULT_BINS) ->
         return frame.assign(**{name: frame[column]}), False
     values = episodes[column]
     if column == "difficulty":
-        grouped = pd.Categorical(values.fillna(UNKNOWN), categories=[*DIFFICULTY_ORDER, UNKNOWN], ordered=True)
+        grouped = pd.Categorical(values.fillna(UNKNOWN), categories=[*DIFFICULTIES, UNKNOWN], ordered=True)
         return episodes.assign(**{name: grouped}), False
     if column == "wrong_object_grasped":
         labels = ["0", "1", "2", "3+"]

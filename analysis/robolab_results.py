@@ -46,12 +46,11 @@ from robolab_ms.errors import RoboLabError
 from robolab_ms.eval.metrics import METRIC_KEYS
 from robolab_ms.eval.results import EPISODES_FILE, EpisodeResult
 from robolab_ms.tasks.events import EVENT_TYPES
-from robolab_ms.tasks.spec import CONTROL_HZ
+from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS
 
 ROBOLAB_RESULTS_FILE = "episode_results.jsonl"
 ROBOLAB_SIMULATOR = "robolab-isaac"
 ROBOLAB_ROBOT = "droid"
-INSTRUCTION_TYPES = ("default", "vague", "specific")
 # RoboLab's event names (status code names without `_FAILURE`, lower-cased) -> ours; the others are the same name
 EVENT_NAMES = {
     "wrong_object_grabbed": "wrong_object_grasped",
@@ -120,7 +119,7 @@ def _folder_defaults(name: str) -> tuple[str | None, str | None]:
     """The instruction type and policy a RoboLab folder name `<timestamp>_<policy>[_<instruction_type>]` gives."""
     match = _FOLDER_NAME.match(name)
     rest = match.group("rest") if match else name
-    for variant in INSTRUCTION_TYPES:
+    for variant in INSTRUCTION_VARIANTS:
         if rest.endswith(f"_{variant}"):
             return variant, rest[: -len(variant) - 1]
     return None, rest if match else None

@@ -49,7 +49,6 @@ TASK_COLUMNS = (
     "num_objects",
     "episode_seconds",
 )
-DIFFICULTY_ORDER = ("simple", "moderate", "complex")
 
 
 @dataclass
@@ -106,7 +105,7 @@ def load_runs(folders: Sequence[str | Path], task_info: pd.DataFrame | None = No
     if not paths:
         raise RoboLabError("no results folder given: name one or more folders written by `robolab eval --out DIR`")
     results: dict[tuple, tuple[str, EpisodeResult]] = {}
-    labels = _run_labels(paths)
+    labels = run_labels(paths)
     for path, label in zip(paths, labels):
         if not path.is_dir():
             what = "a file, not a folder" if path.exists() else "no such folder"
@@ -141,7 +140,7 @@ def load_runs(folders: Sequence[str | Path], task_info: pd.DataFrame | None = No
     return RunSet(episodes=episodes.reset_index(drop=True), folders=paths, unknown_tasks=unknown)
 
 
-def _run_labels(paths: list[Path]) -> list[str]:
+def run_labels(paths: list[Path]) -> list[str]:
     """The folder names, or the paths as given where two folders share a name."""
     names = [path.resolve().name for path in paths]
     return [name if names.count(name) == 1 else str(path) for name, path in zip(names, paths)]

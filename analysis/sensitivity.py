@@ -54,7 +54,6 @@ if TYPE_CHECKING:  # pandas, and torch through robolab_ms.analysis.runs, load wh
 
     from robolab_ms.analysis.runs import RunSet
 
-CAMERA_OFFSETS = ("dx", "dy", "dz", "droll", "dpitch", "dyaw")
 DERIVED_OBSERVATIONS = {"success": "1 for a success, else 0", "duration": "episode length in seconds (steps / 15 Hz)"}
 MIN_EPISODES = 20
 TABLE_CSV = "sensitivity.csv"
@@ -277,12 +276,14 @@ def _continuous_parameter(column: str, values: pd.Series, recorded: dict) -> tup
 
 def _camera_groups(columns: Sequence[str]) -> dict[str, list[str]]:
     """camera name -> its six offset columns, for the cameras with all six among `columns`."""
+    from robolab_ms.variations.camera import OFFSETS
+
     present = set(columns)
     groups = {}
     for column in columns:
         match = re.fullmatch(r"cam_(.+)_dx", column)
         if match:
-            names = [f"cam_{match.group(1)}_{offset}" for offset in CAMERA_OFFSETS]
+            names = [f"cam_{match.group(1)}_{offset}" for offset in OFFSETS]
             if all(name in present for name in names):
                 groups[match.group(1)] = names
     return groups

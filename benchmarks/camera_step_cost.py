@@ -27,7 +27,7 @@ from robolab_ms.agents import robot_binding
 from robolab_ms.catalog import load_catalog
 from robolab_ms.catalog.appearance import Look
 from robolab_ms.envs import RoboLabEnv, cameras
-from robolab_ms.envs.robolab_env import SIM_HZ
+from robolab_ms.physics import SIM_HZ
 from robolab_ms.scene.builder import RoboLabSceneBuilder
 from robolab_ms.tasks.spec import CONTROL_HZ, load_task
 

@@ -41,12 +41,13 @@ from robolab_ms.eval.results import (
     optional,
     shown,
 )
+from robolab_ms.tasks.spec import CONTROL_HZ
 
 CODEBASE_VERSION = "v3.0"
 CHUNKS_SIZE = 1000  # files per chunk folder
 DATA_FILES_SIZE_IN_MB = 100
 VIDEO_FILES_SIZE_IN_MB = 200
-FRAMES_PER_FILE = 15 * 3600  # frames of one data file / one camera video file (one hour at 15 fps)
+FRAMES_PER_FILE = CONTROL_HZ * 3600  # frames of one data file / one camera video file (one hour at 15 fps)
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
 EPISODES_PATH = "meta/episodes/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
@@ -192,7 +193,7 @@ def _recording_meta(path: Path) -> dict[str, Any]:
                 kind(info[key])
         field = "robolab.control_hz"
         if info.get("control_hz") == 0:
-            raise InvalidValue("is 0, expected the control rate in Hz (15)")
+            raise InvalidValue(f"is 0, expected the control rate in Hz ({CONTROL_HZ})")
         field = "episodes"
         episodes = meta.get("episodes", [])
         if not isinstance(episodes, list) or not all(isinstance(item, dict) for item in episodes):
@@ -304,7 +305,7 @@ def export_lerobot(
         )
 
     first = episodes[0].robolab
-    fps = int(first.get("control_hz", 15))
+    fps = int(first.get("control_hz", CONTROL_HZ))
     arm_joints = list(first.get("arm_joints") or [f"joint_{i}" for i in range(7)])
     robot = first.get("robot")
     cameras = list(first.get("cameras") or []) if videos else []
@@ -315,7 +316,7 @@ def export_lerobot(
         shapes = {c: tuple(file[f"{TRAJECTORY_KEY}/obs/sensor_data/{c}/rgb"].shape[1:]) for c in cameras}
     for episode in episodes:
         info = episode.robolab
-        if info.get("robot") != robot or int(info.get("control_hz", 15)) != fps:
+        if info.get("robot") != robot or int(info.get("control_hz", CONTROL_HZ)) != fps:
             raise RoboLabError(
                 f"{episode.recording}: robot {info.get('robot')} at {info.get('control_hz')} Hz, but "
                 f"{episodes[0].recording} has {robot} at {fps} Hz; export one robot per dataset "

@@ -28,9 +28,8 @@ import numpy as np
 from robolab_ms.errors import RoboLabError, make_folder
 from robolab_ms.eval.results import EpisodeResult, append_result, episode_key
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
+from robolab_ms.physics import MAX_DRIFT_M, STABILITY_PHYSICS_STEPS
 
-STABILITY_PHYSICS_STEPS = 300
-MAX_DRIFT_M = 0.02
 MAX_RANDOM_SUCCESS = 0.10
 MIN_ORACLE_SUCCESS = 0.90
 REPORT_CSV, REPORT_MD = "validation.csv", "validation.md"

@@ -21,6 +21,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from robolab_ms.tasks.spec import CONTROL_HZ
+
 VIDEO_WIDTH = 640  # frame width; the policy views share it, the video camera is scaled to it
 CAPTION_LINES = 5  # instruction (up to 2 lines), status line, up to 2 event lines
 LINE_HEIGHT = 18
@@ -117,7 +119,7 @@ class EpisodeVideo:
     file and raises the first encoding error, if any. A video begun but not ended when `close()` comes is dropped.
     """
 
-    def __init__(self, fps: int = 15, width: int = VIDEO_WIDTH, queue_frames: int = 64) -> None:
+    def __init__(self, fps: int = CONTROL_HZ, width: int = VIDEO_WIDTH, queue_frames: int = 64) -> None:
         self.fps, self.width = fps, width
         self._queue: queue.Queue = queue.Queue(maxsize=queue_frames)
         self._error: BaseException | None = None

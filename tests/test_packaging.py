@@ -46,6 +46,19 @@ def test_content_folders_ship_inside_the_package(wheel_names):
         assert expected in wheel_names, expected
 
 
+def test_sub_packages_and_their_files_ship(wheel_names):
+    """The command's package (with `python -m robolab_ms.cli`) and the leaderboard's page files, read at run time."""
+    for expected in (
+        "robolab_ms/cli/__init__.py",
+        "robolab_ms/cli/__main__.py",
+        "robolab_ms/cli/evaluate.py",
+        "robolab_ms/analysis/leaderboard/pages.py",
+        "robolab_ms/analysis/leaderboard/style.css",
+        "robolab_ms/analysis/leaderboard/page.js",
+    ):
+        assert expected in wheel_names, expected
+
+
 @pytest.mark.slow
 def test_regular_install_into_a_fresh_venv_works_like_the_checkout(tmp_path):
     """A fresh venv borrows the dependencies of this one (a .pth line) and gets robolab_ms from `pip install .`."""

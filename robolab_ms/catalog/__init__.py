@@ -2,7 +2,7 @@
 
 The catalog is data (assets/catalog.yaml), read and checked by `.schema`; procedural shapes in `.procedural`,
 packaged meshes in `.meshes`, looks in `.appearance`, `robolab catalog build` in `.build`, the check and contact
-sheet in `.check`, `robolab catalog add` in `.add`.
+sheet in `.check`, `robolab catalog add` in `.add`, the table `robolab catalog list` prints in `.listing`.
 """
 
 from robolab_ms.catalog.schema import (
@@ -13,6 +13,7 @@ from robolab_ms.catalog.schema import (
     load_catalog,
     narrowest_width,
     read_catalog,
+    shipped_catalog_file,
     user_catalog_files,
 )
 
@@ -24,5 +25,6 @@ __all__ = [
     "load_catalog",
     "narrowest_width",
     "read_catalog",
+    "shipped_catalog_file",
     "user_catalog_files",
 ]

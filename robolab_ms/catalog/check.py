@@ -21,11 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from robolab_ms.catalog.schema import Catalog, CatalogObject
+from robolab_ms.physics import MAX_DRIFT_M, SIM_HZ, STABILITY_PHYSICS_STEPS
 
-PHYSICS_HZ = 120
 SETTLE_STEPS = 120
-HOLD_STEPS = 300
-MAX_DRIFT = 0.02  # m over HOLD_STEPS
 MAX_TILT_DEG = 15.0
 SIZE_TOLERANCE = 0.05
 SIZE_FLOOR = 0.06  # below 6 cm the tolerance is 3 mm (thin plates, flat tools)
@@ -65,7 +63,7 @@ def _new_scene(with_camera: bool = True, image_size: int = 128):
     import sapien
 
     scene = sapien.Scene([sapien.physx.PhysxCpuSystem(), sapien.render.RenderSystem(_render_device())])
-    scene.set_timestep(1.0 / PHYSICS_HZ)
+    scene.set_timestep(1.0 / SIM_HZ)
     ground_material = sapien.render.RenderMaterial(base_color=[0.86, 0.86, 0.86, 1.0])
     scene.add_ground(0.0, render_material=ground_material)
     scene.set_ambient_light([0.45, 0.45, 0.45])
@@ -201,14 +199,14 @@ def check_object(entry: CatalogObject, render: bool = True) -> CheckResult:
     for _ in range(SETTLE_STEPS):
         scene.step()
     settled = actor.pose
-    for _ in range(HOLD_STEPS):
+    for _ in range(STABILITY_PHYSICS_STEPS):
         scene.step()
     final = actor.pose
     drift = float(np.linalg.norm(np.asarray(final.p) - np.asarray(settled.p)))
     start_drop = float(np.linalg.norm(np.asarray(settled.p[:2])))
     tilt = math.degrees(math.acos(float(np.clip(_quat_z_axis(np.asarray(final.q))[2], -1, 1))))
     result.measured.update(drift=drift, tilt_deg=tilt, slide=start_drop)
-    if drift > MAX_DRIFT or start_drop > MAX_DRIFT:
+    if drift > MAX_DRIFT_M or start_drop > MAX_DRIFT_M:
         result.problems.append(f"does not stay put: moved {max(drift, start_drop) * 100:.1f} cm")
     if tilt > MAX_TILT_DEG:
         result.problems.append(f"does not rest upright: tilted {tilt:.0f} degrees")

@@ -554,6 +554,11 @@ def read_catalog(file: Path) -> Catalog:
     return Catalog(objects, file)
 
 
+def shipped_catalog_file() -> Path:
+    """The catalog file shipped with robolab_ms (assets/catalog.yaml), which `robolab catalog build` rewrites."""
+    return content_dir("assets") / "catalog.yaml"
+
+
 def user_catalog_files() -> list[Path]:
     """The catalog files of the user content folders (ROBOLAB_CONTENT, --content): each folder's assets/catalog.yaml,
     where `robolab catalog add` writes."""
@@ -566,7 +571,7 @@ def load_catalog(file: Path | None = None) -> Catalog:
     catalog (`user_catalog_files`). Read once per process and file version (a file changed on disk is read again)."""
     if file is not None:
         return _read_catalog_version(Path(file), _file_version(Path(file)))
-    files = [content_dir("assets") / "catalog.yaml", *user_catalog_files()]
+    files = [shipped_catalog_file(), *user_catalog_files()]
     return _joined_catalogs(tuple((file, _file_version(file)) for file in files))
 
 

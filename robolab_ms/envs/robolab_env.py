@@ -42,6 +42,7 @@ from robolab_ms.catalog import load_catalog
 from robolab_ms.catalog.appearance import scene_renders
 from robolab_ms.envs import cameras as cameras_module
 from robolab_ms.errors import RoboLabError, UnknownNameError
+from robolab_ms.physics import SIM_HZ
 from robolab_ms.render_check import NO_DEVICE_HELP
 from robolab_ms.tasks.context import EvalContext
 from robolab_ms.tasks.evaluator import TaskEvaluator
@@ -51,7 +52,6 @@ from robolab_ms.tasks.spec import CONTROL_HZ, INSTRUCTION_VARIANTS, load_task
 # The droid agent and the scene builder bring ManiSkill up when imported, and ManiSkill's start-up hook registers the
 # environments (imports this module) the moment it is up: they are imported where they are used, so that this
 # module never needs one of them while it is still being imported.
-SIM_HZ = 120
 CPU_BACKENDS = ("auto", "cpu", "physx_cpu")
 STATE_OBS_MODES = ("state", "state_dict", "none")  # observation modes that need no renderer
 EPISODE_STATE_KEY = "episode"  # the state dict's entry with the episode's seed and step (see set_state_dict)

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from robolab_ms.generation.llm import add_endpoint_arguments, chat_client_from_args
+from robolab_ms.physics import STABILITY_PHYSICS_STEPS
 
 
 def add_scene_arguments(parser: argparse.ArgumentParser) -> None:
@@ -63,8 +64,8 @@ def run_scene(args: argparse.Namespace) -> int:
         held = f", {result.satisfied()} of {len(result.requested)} requested relations hold" if result.requested else ""
         worst = max(settled.drift.values(), default=0.0)
         print(
-            f"{len(result.objects)} objects, largest drift {worst * 100:.1f} cm over 300 physics steps{held}; "
-            f"{result.rounds} round(s), {result.seconds:.1f} s"
+            f"{len(result.objects)} objects, largest drift {worst * 100:.1f} cm over {STABILITY_PHYSICS_STEPS} "
+            f"physics steps{held}; {result.rounds} round(s), {result.seconds:.1f} s"
         )
     for line in result.relaxed:
         print(f"relaxed: {line}")

@@ -15,8 +15,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from robolab_ms.catalog import Catalog
-from robolab_ms.eval.validate import FELL_BELOW_M, MAX_DRIFT_M, STABILITY_PHYSICS_STEPS
+from robolab_ms.eval.validate import FELL_BELOW_M
 from robolab_ms.generation.proposal import ROBOT, Relation
+from robolab_ms.physics import MAX_DRIFT_M, STABILITY_PHYSICS_STEPS
 from robolab_ms.scene import DIRECTIONS, SceneSpec
 
 PLACE_TOLERANCE = 0.03  # m: an object asked for at (x, y) counts as there within this

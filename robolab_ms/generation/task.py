@@ -37,21 +37,10 @@ from robolab_ms.generation.proposal import FRAME
 from robolab_ms.generation.scene import feedback_message
 from robolab_ms.scene import SceneSpec, load_scene, read_scene, scene_files
 from robolab_ms.tasks.predicates import PREDICATES
-from robolab_ms.tasks.spec import AXIS_OF_ATTRIBUTE, INSTRUCTION_VARIANTS, TaskSpec, read_task
+from robolab_ms.tasks.spec import AXIS_OF_ATTRIBUTE, INSTRUCTION_VARIANTS, TASK_KEYS, TaskSpec, read_task
 
 DEFAULT_ROUNDS = 3
 DEFAULT_SEEDS = 3
-TASK_KEYS = (
-    "name",
-    "scene",
-    "episode_seconds",
-    "attributes",
-    "instructions",
-    "success",
-    "subtasks",
-    "contact_objects",
-    "events",
-)  # the order a task file lists them in
 ATTRIBUTE_MEANINGS = {
     "color": "an object is picked out by its colour", "semantics": "by what it is (a category: fruit, tools)",
     "size": "by its size (the bigger pumpkin)", "conjunction": "several objects joined by and / or, or in sequence",

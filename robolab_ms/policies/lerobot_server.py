@@ -2,8 +2,8 @@
 
 LeRobot 0.5 and later need Python 3.12 and numpy 2, so LeRobot policies run in their own environment
 (`make lerobot-env`, see docs/policies.md) and reach the benchmark through this server. It imports numpy, torch,
-lerobot, websockets and msgpack, and from robolab_ms only light modules (errors, the LeRobot key names; their
-gymnasium is a LeRobot dependency too), never the simulator:
+lerobot, websockets and msgpack, and from robolab_ms only light modules (errors, the LeRobot key names, the action
+size; their gymnasium is a LeRobot dependency too), never the simulator:
 
     PYTHONPATH=. .venv-lerobot/bin/python -m robolab_ms.policies.lerobot_server --checkpoint DIR --port 8000
     PYTHONPATH=. .venv-lerobot/bin/python -m robolab_ms.policies.lerobot_server --policy-type act --port 8000
@@ -43,10 +43,10 @@ import numpy as np
 
 from robolab_ms.errors import RoboLabError
 from robolab_ms.policies.lerobot import CAMERA_KEYS
+from robolab_ms.policies.remote import ACTION_DIM
 
 log = logging.getLogger("robolab_ms.lerobot_server")
 
-DROID_ACTION_DIM = 8  # 7 arm joint targets + the gripper
 IMAGE_SOURCES = ("exterior_image_1_left", "wrist_image_left")  # the images of an openpi DROID request
 VECTOR_SOURCES = {"joint_position": 7, "gripper_position": 1}  # and its vectors, with their lengths
 DEFAULT_IMAGE_SIZE = (224, 224)
@@ -127,7 +127,7 @@ class ServedPolicy:
             "policy_type": self.config.type,
             "policy_source": self.source,
             "action_horizon": self.actions_per_reply,
-            "action_dim": DROID_ACTION_DIM,
+            "action_dim": ACTION_DIM,
             "policy_action_dim": self.action_dim,
             "inputs": {name: "+".join(keys) for name, keys in self.sources.items()},
             "lerobot_version": getattr(lerobot, "__version__", "unknown"),
@@ -191,16 +191,16 @@ class ServedPolicy:
     def to_droid(self, actions: np.ndarray) -> np.ndarray:
         if self.action_indices is not None:
             return np.ascontiguousarray(actions[:, self.action_indices], dtype=np.float32)
-        if actions.shape[1] != DROID_ACTION_DIM:
+        if actions.shape[1] != ACTION_DIM:
             self._warn_once(
                 "action",
                 f"the policy's action has {actions.shape[1]} values and DROID's has "
-                f"{DROID_ACTION_DIM} (7 joint targets, gripper): "
-                f"{'padded with zeros' if actions.shape[1] < DROID_ACTION_DIM else 'cut'} to "
-                f"{DROID_ACTION_DIM}; choose them with --action-indices",
+                f"{ACTION_DIM} (7 joint targets, gripper): "
+                f"{'padded with zeros' if actions.shape[1] < ACTION_DIM else 'cut'} to "
+                f"{ACTION_DIM}; choose them with --action-indices",
             )
-            actions = np.pad(actions, ((0, 0), (0, max(0, DROID_ACTION_DIM - actions.shape[1]))))
-        return np.ascontiguousarray(actions[:, :DROID_ACTION_DIM], dtype=np.float32)
+            actions = np.pad(actions, ((0, 0), (0, max(0, ACTION_DIM - actions.shape[1]))))
+        return np.ascontiguousarray(actions[:, :ACTION_DIM], dtype=np.float32)
 
     def check_sizes(self) -> None:
         """Warn, before serving, about a state or an action whose length differs from what DROID has."""
@@ -214,7 +214,7 @@ class ServedPolicy:
                         f"{'padded with zeros' if given < size else 'cut'} to fit (map it with "
                         "--map)",
                     )
-        if self.action_indices is None and self.action_dim != DROID_ACTION_DIM:
+        if self.action_indices is None and self.action_dim != ACTION_DIM:
             self.to_droid(np.zeros((1, self.action_dim), np.float32))
 
     def _warn_once(self, key: str, message: str) -> None:
@@ -450,8 +450,8 @@ def _from_config(args: argparse.Namespace, settings: dict[str, Any], device: str
     height, width = args.image_size
     image = PolicyFeature(type=FeatureType.VISUAL, shape=(3, height, width))
     config.input_features = {CAMERA_KEYS[key]: image for key in IMAGE_SOURCES}
-    config.input_features["observation.state"] = PolicyFeature(type=FeatureType.STATE, shape=(DROID_ACTION_DIM,))
-    config.output_features = {"action": PolicyFeature(type=FeatureType.ACTION, shape=(DROID_ACTION_DIM,))}
+    config.input_features["observation.state"] = PolicyFeature(type=FeatureType.STATE, shape=(ACTION_DIM,))
+    config.output_features = {"action": PolicyFeature(type=FeatureType.ACTION, shape=(ACTION_DIM,))}
     config.validate_features()
     policy = get_policy_class(config.type)(config=config)
     overrides = {"device_processor": {"device": device}}
@@ -468,9 +468,9 @@ def _action_indices(text: str | None, action_dim: int) -> list[int] | None:
         indices = [int(part) for part in text.split(",")]
     except ValueError:
         indices = []
-    if len(indices) != DROID_ACTION_DIM or not all(0 <= index < action_dim for index in indices):
+    if len(indices) != ACTION_DIM or not all(0 <= index < action_dim for index in indices):
         raise RoboLabError(
-            f"--action-indices {text}: give {DROID_ACTION_DIM} comma-separated indices into the "
+            f"--action-indices {text}: give {ACTION_DIM} comma-separated indices into the "
             f"policy's action (0 to {action_dim - 1}): 7 joint targets, then the gripper"
         )
     return indices

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from robolab_ms.catalog import COLOR_NAMES, Catalog, CatalogObject, load_catalog
+from robolab_ms.catalog.procedural import IDENTITY as IDENTITY_QUAT
 from robolab_ms.catalog.procedural import quat_multiply, quat_to_matrix, yaw_quat
 from robolab_ms.content import Fields, content_files, load_yaml
 from robolab_ms.errors import UnknownNameError
@@ -29,7 +30,6 @@ SAFE_PLACEMENT = {"x": (0.25, 0.85), "y": (-0.45, 0.45)}  # where object positio
 # the relations left of, right of, in front of and behind as seen from the robot: unit (x, y) directions
 DIRECTIONS = {"left_of": (0.0, 1.0), "right_of": (0.0, -1.0), "in_front_of": (-1.0, 0.0), "behind": (1.0, 0.0)}
 TILT_AXES = ("x", "y")  # object-frame axes a scene may tip an object about (to lay it on its side)
-IDENTITY_QUAT = (1.0, 0.0, 0.0, 0.0)
 JITTER_YAW_STEP_DEG = 5.0  # the yaw range of the jitter is checked at steps this fine
 DEFAULT_TABLE_SIZE = (0.9, 1.2)  # x (depth, away from the robot), y (width)
 DEFAULT_TABLE_COLOR = "brown"  # a table without color, rgba or material (robolab_ms.scene.room: it shows wood)
@@ -631,6 +631,12 @@ def load_scene(name: str, near: Path | None = None) -> SceneSpec:
     if path is None:
         raise UnknownNameError("scene", name, scene_names(near))
     return read_scene(path)
+
+
+def load_scene_or_file(scene: str) -> SceneSpec:
+    """A scene given by its file (an existing .yaml file) or by its name, as `load_scene` finds it."""
+    path = Path(scene)
+    return read_scene(path) if path.suffix == ".yaml" and path.is_file() else load_scene(scene)
 
 
 def resting_height(points: np.ndarray, tilt: Sequence[float]) -> float:

@@ -11,9 +11,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from robolab_ms.errors import RoboLabError, UnknownNameError
-from robolab_ms.tasks.spec import AXIS_OF_ATTRIBUTE, TaskSpec
+from robolab_ms.tasks.spec import AXIS_OF_ATTRIBUTE, DIFFICULTIES, TaskSpec
 
-DIFFICULTIES = ("simple", "moderate", "complex")
 ALL_TASKS = "all"
 
 

@@ -36,6 +36,18 @@ SKILL_WEIGHT = {
     "counting": 2, "sorting": 2, "stacking": 2, "affordance": 2, "reorientation": 3,
 }  # fmt: skip
 LOGICALS = ("all", "any", "choose")
+DIFFICULTIES = ("simple", "moderate", "complex")  # RoboLab's levels, easiest first (TaskSpec.difficulty)
+TASK_KEYS = (
+    "name",
+    "scene",
+    "episode_seconds",
+    "attributes",
+    "instructions",
+    "success",
+    "subtasks",
+    "contact_objects",
+    "events",
+)  # the keys a task file may have, in the order it lists them
 
 
 @dataclass(frozen=True)
@@ -93,8 +105,10 @@ class TaskSpec:
 
     @property
     def difficulty(self) -> str:
+        """The level of the difficulty score: simple up to 2, moderate up to 4, complex above."""
+        simple, moderate, complex_ = DIFFICULTIES
         score = self.difficulty_score
-        return "simple" if score <= 2 else "moderate" if score <= 4 else "complex"
+        return simple if score <= 2 else moderate if score <= 4 else complex_
 
     @property
     def axes(self) -> tuple[str, ...]:
@@ -355,19 +369,7 @@ def _read_episode_seconds(fields: Fields) -> float:
 def read_task(file: Path) -> TaskSpec:
     """Read and check a task spec file."""
     fields = Fields(load_yaml(file), file)
-    fields.only(
-        [
-            "name",
-            "scene",
-            "episode_seconds",
-            "attributes",
-            "instructions",
-            "success",
-            "subtasks",
-            "contact_objects",
-            "events",
-        ]
-    )
+    fields.only(list(TASK_KEYS))
     name = fields.get("name", str)
     if name != file.stem:
         raise fields.error("name", f"'{name}' differs from the file name '{file.stem}'", "Make them the same")

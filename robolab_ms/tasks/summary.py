@@ -18,8 +18,7 @@ from pathlib import Path
 
 from robolab_ms.content import Fields, load_yaml
 from robolab_ms.errors import RoboLabError
-from robolab_ms.tasks.selection import DIFFICULTIES
-from robolab_ms.tasks.spec import AXIS_OF_ATTRIBUTE, TaskSpec, task_file
+from robolab_ms.tasks.spec import AXIS_OF_ATTRIBUTE, DIFFICULTIES, TaskSpec, task_file
 
 REFERENCE_FILE = Path(__file__).with_name("robolab120.yaml")
 ATTRIBUTE_ORDER = (

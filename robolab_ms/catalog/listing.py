@@ -1,0 +1,59 @@
+"""The catalog as a table of text cells, one row per object: what `robolab catalog list` prints."""
+
+from __future__ import annotations
+
+from robolab_ms.agents.droid_model import RATED_OPENING
+from robolab_ms.catalog.schema import Catalog, CatalogObject, narrowest_width
+
+GRASP_CLEARANCE = 0.005  # m: an object "fits" the open gripper with at least this much room on each side
+LISTING_HEADER = ("object", "class", "size x y z (cm)", "grasp (cm)", "fits", "colours", "mass (kg)", "source")
+
+
+def grasp_fit(width: float) -> str:
+    """Whether an object this wide (m) fits the open DROID gripper: `yes` with GRASP_CLEARANCE to spare on each side,
+    `tight` when only narrower than the opening, `no` otherwise."""
+    if width <= RATED_OPENING - 2 * GRASP_CLEARANCE:
+        return "yes"
+    return "tight" if width < RATED_OPENING else "no"
+
+
+def source_label(entry: CatalogObject) -> str:
+    """Where an object comes from: its generator (procedural), the folder of its file (added with `robolab catalog
+    add`) or its asset package."""
+    if entry.is_procedural:
+        return entry.source["generator"]
+    if entry.source["kind"] == "file":
+        return f"file in {entry.folder}"
+    return entry.source["package"]
+
+
+def listing_rows(catalog: Catalog) -> list[tuple[str, ...]]:
+    """LISTING_HEADER, then per object in name order: class, size, graspable width, fit, colours, mass and source."""
+    rows = [LISTING_HEADER]
+    for name in catalog.names():
+        entry = catalog[name]
+        size = " x ".join(f"{d * 100:.1f}" for d in (entry.recorded_dimensions or entry.dimensions))
+        width = narrowest_width(entry)
+        rows.append(
+            (
+                name,
+                entry.object_class,
+                size,
+                f"{width * 100:.1f}",
+                grasp_fit(width),
+                ",".join(entry.colors) or "-",
+                f"{entry.mass:.3f}",
+                source_label(entry),
+            )
+        )
+    return rows
+
+
+def listing_note(catalog: Catalog) -> str:
+    """The line under the table: how many objects, and what `grasp` and `fits` mean."""
+    return (
+        f"{len(catalog)} object(s). grasp: the narrowest horizontal width as the object stands; fits: whether "
+        f"that is under the DROID gripper's {RATED_OPENING * 1000:.0f} mm opening with "
+        f"{GRASP_CLEARANCE * 1000:.0f} mm to spare on each side (yes), under it (tight) or not (no; a thin part such "
+        "as a handle or rim may still be graspable)"
+    )
