@@ -655,6 +655,8 @@ def _cmd_catalog_list(args: argparse.Namespace) -> int:
         entry = catalog[name]
         if entry.is_procedural:
             kind = entry.source["generator"]
+        elif entry.is_modelled:
+            kind = f"modelled {entry.source['generator']}"
         elif entry.source["kind"] == "file":  # added with `robolab catalog add`: the folder it lies in
             kind = f"file in {entry.folder}"
         else:
