@@ -1,7 +1,7 @@
 """The object catalog: every object a scene may place, with its physical and descriptive metadata.
 
 The catalog is data (assets/catalog.yaml), read and checked by `.schema`; procedural shapes in `.procedural`,
-packaged meshes in `.meshes`, looks in `.appearance`, `robolab catalog build` in `.build`, the check and contact
+modelled meshes in `.modelled`, packaged meshes in `.meshes`, looks in `.appearance`, `robolab catalog build` in `.build`, the check and contact
 sheet in `.check`, `robolab catalog add` in `.add`.
 """
 

@@ -181,21 +181,25 @@ def sweep(
     sides: int = 24,
     lobes: int = 0,
     lobe_depth: float = 0.0,
+    squareness: float = 0.0,
 ) -> tuple[TriangleMesh, np.ndarray]:
     """A closed tube along `path` (M, 3): at each point an ellipse with half widths (M, 2) across the path (the
-    first along the binormal, the second along `up` made perpendicular to the path), optionally with `lobes` soft
-    ridges (`lobe_depth`, a fraction of the width: a banana's angular section). Flat caps close the ends. Returns
-    the mesh (u around, v along the path) and the rings of points (M, sides, 3), which make its convex pieces."""
+    first along the binormal, the second along `up` made perpendicular to the path), a rounded rectangle with
+    `squareness` (0 to 1: a drill's grip), optionally with `lobes` soft ridges (`lobe_depth`, a fraction of the
+    width: a banana's angular section). Flat caps close the ends. A side of the section, not a corner, faces each
+    of the four directions across the path (fingers closing on the tube meet a face). Returns the mesh (u around,
+    v along the path) and the rings of points (M, sides, 3), which make its convex pieces."""
     path = np.asarray(path, dtype=float)
     half_widths = np.asarray(half_widths, dtype=float)
     tangents, normals, binormals = _frames(path, up)
-    phi = np.linspace(0.0, 2 * math.pi, sides + 1)
+    phi = (np.arange(sides + 1) + 0.5) * 2 * math.pi / sides
+    section, derivative = _cross_section(phi, 2.0 + 8.0 * squareness)
     lobe = 1.0 + lobe_depth * np.cos(lobes * phi) if lobes else np.ones_like(phi)
-    across = half_widths[:, :1, None] * (np.cos(phi) * lobe)[None, :, None] * binormals[:, None, :]
-    above = half_widths[:, 1:, None] * (np.sin(phi) * lobe)[None, :, None] * normals[:, None, :]
+    across = half_widths[:, :1, None] * (section[:, 0] * lobe)[None, :, None] * binormals[:, None, :]
+    above = half_widths[:, 1:, None] * (section[:, 1] * lobe)[None, :, None] * normals[:, None, :]
     rings = path[:, None, :] + across + above  # (M, sides + 1, 3)
-    normal = (np.cos(phi)[None, :, None] / half_widths[:, :1, None]) * binormals[:, None, :] + (
-        np.sin(phi)[None, :, None] / half_widths[:, 1:, None]
+    normal = (derivative[None, :, 1:] * half_widths[:, None, 1:]) * binormals[:, None, :] - (
+        derivative[None, :, :1] * half_widths[:, None, :1]
     ) * normals[:, None, :]
     count = len(path)
     lengths = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
@@ -212,7 +216,7 @@ def sweep(
         start = sum(len(block) for block in vertices)
         vertices.append(np.concatenate([path[end : end + 1], rings[end]]))
         normal_list.append(np.tile(sign * tangents[end], (sides + 2, 1)))
-        uv_list.append(np.concatenate([[[0.5, 0.5]], 0.5 + 0.5 * np.column_stack([np.cos(phi), np.sin(phi)])]))
+        uv_list.append(np.concatenate([[[0.5, 0.5]], 0.5 + 0.5 * section]))
         k = np.arange(sides)
         fan = np.column_stack([np.full(sides, start), start + 1 + k, start + 2 + k])
         triangles.append(fan[:, [0, 2, 1]] if sign > 0 else fan)
@@ -287,8 +291,18 @@ def rounded_box(
 
 
 # ---------------------------------------------------------------------------------------------------- convex pieces
+def _sector_angles(sectors: int) -> np.ndarray:
+    """The corner angles of a `sectors`-sided polygon about the z axis with a side (not a corner) facing each of
+    +x, +y, -x and -y (for `sectors` a multiple of 4): an object on its side rests on a face, as a cylinder would."""
+    return (np.arange(sectors) + 0.5) * 2 * math.pi / sectors
+
+
 def _ring(radius: float, z: float, sectors: int, exponent: float = 2.0) -> np.ndarray:
-    direction, _ = _cross_section(np.linspace(0, 2 * math.pi, sectors, endpoint=False), exponent)
+    """A polygon of `sectors` corners at height `z` around the section of `radius`: for a circle, its sides touch
+    the circle (the collision reaches the surface all round, and no further than its corners)."""
+    direction, _ = _cross_section(_sector_angles(sectors), exponent)
+    if exponent == 2.0:
+        radius = radius / math.cos(math.pi / sectors)
     return np.column_stack([radius * direction, np.full(sectors, z)])
 
 
@@ -366,9 +380,13 @@ def wall_pieces(
         band = np.concatenate([outer[start : stop + 1], inner[start : stop + 1]])
         if stop == len(inner) - 1 and rim is not None:
             band = np.concatenate([band, rim])
+        corners = _sector_angles(sectors)
+        reach = 1.0 / math.cos(math.pi / sectors)  # the sides touch the outer and inner circles
         for sector in range(sectors):
-            angles = np.array([sector, sector + 1]) * 2 * math.pi / sectors
-            pieces.append(np.array([[r * math.cos(a), r * math.sin(a), z] for r, z in band for a in angles]))
+            angles = corners[[sector, (sector + 1) % sectors]]
+            pieces.append(
+                np.array([[reach * r * math.cos(a), reach * r * math.sin(a), z] for r, z in band for a in angles])
+            )
         start = stop
     return pieces
 
@@ -682,8 +700,8 @@ def _along_x(mesh: TriangleMesh, centre: Sequence[float]) -> TriangleMesh:
 
 
 def drill(height: float = 0.19, length: float = 0.205, width: float = 0.075, body_radius: float = 0.03) -> Model:
-    """A cordless drill standing on its battery: a battery pack (second colour) of `width` under a grip leaning
-    back, a motor housing of `body_radius` along +x, a clutch ring and a chuck (second colour) with a steel nose.
+    """A cordless drill standing on its battery: a battery pack (second colour) of `width` under an upright grip,
+    a motor housing of `body_radius` along +x, a clutch ring and a chuck (second colour) with a steel nose.
     `length` runs from the back of the housing to the chuck's nose; the battery is centred at the origin."""
     battery = (0.1, width, 0.05)
     axis_z = height - body_radius
@@ -692,12 +710,14 @@ def drill(height: float = 0.19, length: float = 0.205, width: float = 0.075, bod
     pack, pack_hull = rounded_box(battery, 0.008, (0.0, 0.0, battery[2] / 2))
     surfaces.append(Surface(pack, 1))
     pieces.append(pack_hull)
-    grip_path = np.array([[0.0, 0.0, battery[2] - 0.01], [0.008, 0.0, (battery[2] + axis_z) / 2], [0.018, 0.0, axis_z]])
-    grip, grip_rings = sweep(
-        grip_path, np.array([[0.017, 0.019], [0.015, 0.017], [0.017, 0.019]]), up=(0, 1, 0), sides=16
-    )
+    grip_path = np.array([[0.0, 0.0, battery[2] - 0.01], [0.0, 0.0, (battery[2] + axis_z) / 2], [0.0, 0.0, axis_z]])
+    grip_widths = np.array([[0.02, 0.016], [0.019, 0.015], [0.02, 0.016]])  # 4 cm front to back, 3.2 cm across
+    grip, _ = sweep(grip_path, grip_widths, up=(0, 1, 0), sides=24, squareness=0.7)
     surfaces.append(Surface(grip, 0))
-    pieces += tube_pieces(grip_rings, 1)
+    # Its collision keeps square edges: pads closing on the grip near its top meet a flat side, not a rounded
+    # edge that would squeeze the drill out (a heavy tool is held over its centre of mass, on the grip).
+    _, grip_rings = sweep(grip_path, grip_widths, up=(0, 1, 0), sides=24, squareness=1.0)
+    pieces += tube_pieces(grip_rings, 2)
     nose = back + length
     housing = back + 0.75 * (length - 0.05)  # the housing's front, where the clutch ring starts
     profile = [[0.0, 0.0], [body_radius * 0.75, 0.0], [body_radius * 0.95, 0.008], [body_radius, 0.025]]
