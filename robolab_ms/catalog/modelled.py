@@ -30,6 +30,7 @@ from robolab_ms.errors import UnknownNameError
 DEFAULT_SEGMENTS = 48  # around a revolved surface
 CREASE_DEG = 40.0  # a profile turning more than this at a point gets a sharp edge there
 PIECE_TOLERANCE = 0.0015  # m: how far a convex piece may fill in a concave stretch of the profile
+STEEL = (0.58, 0.58, 0.6)  # a can's lid and base, a drill's nose (light metal, which reflects the room)
 
 Profile = Sequence[Sequence[float]]  # (r, z) points
 
@@ -558,8 +559,8 @@ def cup(top_radius: float, bottom_radius: float, height: float, wall: float = 0.
 
 
 def can(radius: float, height: float, rim: float = 0.004) -> Model:
-    """A food or drink can: a labelled body (first colour) between a rolled base and a seamed lid set down inside
-    its rim (second colour)."""
+    """A food or drink can: a labelled body (first colour) between a rolled steel base and a seamed steel lid set
+    down inside its rim."""
     seam = min(rim, height / 8)
     neck = radius - seam * 0.6
     profile = [
@@ -568,9 +569,13 @@ def can(radius: float, height: float, rim: float = 0.004) -> Model:
         [radius - seam * 0.7, height], [radius - seam, height - seam * 0.6], [0.0, height - seam * 0.6],
     ]  # fmt: skip
     tints = [1, 1, 1, 1, 0, 1, 1, 1, 1, 1]  # the label between the two seams
-    surfaces = tuple(Surface(mesh, tint) for mesh, tint in revolve(profile, tints=tints))
-    silhouette = [[neck, 0.0], [radius, seam], [radius, height - seam * 1.2], [radius - seam * 0.15, height]]
-    return Model(surfaces, tuple(solid_pieces(silhouette, tolerance=0.003)))
+    surfaces = tuple(
+        Surface(mesh, 0) if tint == 0 else Surface(mesh, 0, "metal", STEEL)
+        for mesh, tint in revolve(profile, tints=tints)
+    )
+    # One prism, flat ends with square edges as the procedural can's cylinders: on a rounded base edge a knocked
+    # can rolls away on its rim much further.
+    return Model(surfaces, tuple(solid_pieces([[radius, 0.0], [radius, height]])))
 
 
 def bottle(
@@ -738,7 +743,7 @@ def drill(height: float = 0.19, length: float = 0.205, width: float = 0.075, bod
     for mesh, tint in revolve(chuck, tints=kinds):
         look = Surface(_along_x(mesh, (housing, 0.0, axis_z)), 1)
         if tint == 2:  # the steel nose
-            look = replace(look, kind="metal", rgb=(0.72, 0.72, 0.74))
+            look = replace(look, kind="metal", rgb=STEEL)
         surfaces.append(look)
     pieces += [
         piece @ np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]).T + [housing, 0.0, axis_z]
