@@ -9,7 +9,7 @@ import trimesh
 from scipy.spatial import ConvexHull
 
 from robolab_ms.catalog import load_catalog, read_catalog
-from robolab_ms.catalog.build import _fingerprint, _stored_fingerprint, build_catalog
+from robolab_ms.catalog.build import _fingerprint, _stored_fingerprint, build_catalog, build_modelled
 from robolab_ms.catalog.check import check_object
 from robolab_ms.catalog.meshes import read_hulls
 from robolab_ms.catalog.modelled import GENERATORS, generate
@@ -177,3 +177,31 @@ def test_bad_modelled_entries_name_file_field_and_fix(tmp_path, change, field, m
     with pytest.raises(SpecError, match=match) as caught:
         read_catalog(file)
     assert caught.value.field == f"objects.test_mug.{field}" and caught.value.file == str(file)
+
+
+BOX_BY_COACD = """\
+version: 1
+objects:
+  test_box:
+    class: box
+    description: a test box
+    colors: [red]
+    mass: 0.2
+    friction: {static: 0.8, dynamic: 0.6}
+    source: {kind: modelled, generator: bevelled_box, params: {size: [0.04, 0.06, 0.1]}}
+    collision: {method: coacd}
+    license: test
+"""
+
+
+def test_coacd_decomposes_a_modelled_objects_surfaces(tmp_path, monkeypatch):
+    monkeypatch.setenv("ROBOLAB_MS_CACHE", str(tmp_path / "cache"))
+    file = tmp_path / "catalog.yaml"
+    file.write_text(BOX_BY_COACD)
+    entry = load_yaml(file)["objects"]["test_box"]
+    notes: dict = {}
+    assert build_modelled("test_box", entry, tmp_path / "collision", file, notes=notes)
+    assert notes == {"coacd_cached": False} and list((tmp_path / "cache" / "coacd").glob("*.npz"))
+    points = np.concatenate(read_hulls(str(tmp_path / "collision" / "test_box.obj")))
+    assert np.allclose(points.max(axis=0) - points.min(axis=0), [0.04, 0.06, 0.1], atol=0.003)
+    assert entry["dimensions"] == [0.04, 0.06, 0.1]
