@@ -78,7 +78,7 @@ def test_every_entry_records_its_metadata():
         if not entry.is_procedural:
             assert entry.collision_file.is_file(), name
             assert entry.transform is not None and entry.collision_method != "primitives", name
-            assert "turbosquid" not in " ".join(entry.source["paths"]).lower(), name
+            assert "turbosquid" not in " ".join(entry.source.get("paths", [])).lower(), name
 
 
 def test_build_is_idempotent_and_fills_in_derived_fields(tmp_path):

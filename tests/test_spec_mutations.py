@@ -18,6 +18,7 @@ import pytest
 import yaml
 
 from robolab_ms.catalog import load_catalog, read_catalog
+from robolab_ms.catalog.modelled import GENERATORS as MODELLED_GENERATORS
 from robolab_ms.catalog.procedural import GENERATORS
 from robolab_ms.content import content_dir
 from robolab_ms.errors import SpecError
@@ -172,6 +173,7 @@ def catalog_expectation(entry: dict, prefix: str, path: str, mutation: str, defa
     """The rules for a catalog entry that depend on its kind: procedural objects derive their size, interior and
     collision from their generator, whose parameters with defaults may be left out."""
     procedural = entry["source"]["kind"] == "procedural"
+    modelled = entry["source"]["kind"] == "modelled"
     field = path[len(prefix) + 1 :]
     if field == "" and mutation == "missing":
         return "objects"  # the sample catalog is left without objects
@@ -179,11 +181,14 @@ def catalog_expectation(entry: dict, prefix: str, path: str, mutation: str, defa
         return None if "rgba" in entry else default
     if field == "container" and mutation == "missing":
         return f"{prefix}.interior" if "interior" in entry else None  # an interior needs container: true
+    if field == "interior" and mutation == "missing" and modelled:
+        return None  # a modelled container's interior comes from its generator, as a procedural one's
     if field in ("interior", "dimensions", "collision", "collision.method") and mutation == "missing":
         return None if procedural else f"{prefix}.{field.split('.')[0]}" + (".method" if "collision" in field else "")
-    if not procedural or not field.startswith("source.params"):
+    if not (procedural or modelled) or not field.startswith("source.params"):
         return default
-    signature = inspect.signature(GENERATORS[entry["source"]["generator"]]).parameters
+    generators = GENERATORS if procedural else MODELLED_GENERATORS
+    signature = inspect.signature(generators[entry["source"]["generator"]]).parameters
     if field == "source.params" and mutation == "missing":
         required = [key for key, parameter in signature.items() if parameter.default is inspect.Parameter.empty]
         return f"{path}.{required[0]}" if required else None
@@ -384,12 +389,16 @@ def read_shipped(kind: str, name: str) -> dict:
 
 
 def catalog_sample() -> list[str]:
-    """The first entry of each procedural generator and of each mesh collision method (in name order)."""
+    """The first entry of each procedural and each modelled generator and of each mesh collision method (in name
+    order)."""
     catalog = load_catalog()
     chosen: dict[str, str] = {}
     for name in catalog.names():
         entry = catalog[name]
-        group = entry.source["generator"] if entry.is_procedural else entry.collision_method
+        if entry.is_procedural or entry.is_modelled:
+            group = f"{entry.source['kind']} {entry.source['generator']}"
+        else:
+            group = entry.collision_method
         chosen.setdefault(group, name)
     return sorted(chosen.values())
 

@@ -1,8 +1,9 @@
 """The object catalog: every object a scene may place, with its physical and descriptive metadata.
 
 The catalog is data (assets/catalog.yaml), read and checked by `.schema`; procedural shapes in `.procedural`,
-packaged meshes in `.meshes`, looks in `.appearance`, `robolab catalog build` in `.build`, the check and contact
-sheet in `.check`, `robolab catalog add` in `.add`, the table `robolab catalog list` prints in `.listing`.
+modelled meshes in `.modelled`, packaged meshes in `.meshes`, looks in `.appearance`, `robolab catalog build` in
+`.build`, the check and contact sheet in `.check`, `robolab catalog add` in `.add`, the table `robolab catalog list`
+prints in `.listing`.
 """
 
 from robolab_ms.catalog.schema import (

@@ -122,7 +122,8 @@ def surface_kind(entry: LookedEntry, tint: int = 0) -> str:
             return "print"
         return "baked"
     if cls in ("container", "tableware"):
-        if generator in ("bowl", "cup", "cylinder", "mesh") and not any(w in name for w in ("pail", "bin", "basket")):
+        vessels = ("bowl", "cup", "mug", "cylinder", "mesh")
+        if generator in vessels and not any(w in name for w in ("pail", "bin", "basket")):
             if "paper" in name:
                 return "paper"
             return "ceramic" if tint == 0 else "plastic"
@@ -142,11 +143,19 @@ def surface_kind(entry: LookedEntry, tint: int = 0) -> str:
     return "plastic"
 
 
-def part_look(entry: LookedEntry, tint: int = 0) -> Look:
-    """The look of a part (or of a whole untextured mesh) of a catalog object."""
-    kind = surface_kind(entry, tint)
+def part_look(
+    entry: LookedEntry,
+    tint: int = 0,
+    kind: str | None = None,
+    rgb: tuple[float, float, float] | None = None,
+    shade: float = 1.0,
+) -> Look:
+    """The look of a part (or of a whole untextured mesh) of a catalog object. A modelled surface may name its own
+    texture `kind` and colour `rgb`, and darken (`shade` below 1) or lighten its colour."""
+    kind = kind or surface_kind(entry, tint)
     roughness, metallic = SURFACES[kind]
-    return Look(kind, _rgb_of(entry, tint), roughness, metallic)
+    colour = rgb if rgb is not None else _rgb_of(entry, tint)
+    return Look(kind, tuple(float(min(1.0, c * shade)) for c in colour), roughness, metallic)
 
 
 def render_material(look: Look, face: int = 0) -> sapien.render.RenderMaterial:

@@ -1,12 +1,15 @@
 """`robolab catalog build`: derive what the catalog needs from the installed asset packages, once.
 
+For every modelled object (source kind `modelled`) it runs the generator and writes the hull file of its convex
+pieces (or of coacd's decomposition of its surfaces), its `dimensions` and, for a container, its `interior`.
 For every mesh object (a packaged mesh, or a mesh file beside a user catalog: source kind `file`) it reads the
 visual mesh, applies the entry's scale and rotation, and writes
   - `transform.translation` (puts the centre of the bottom at the origin) and `dimensions` into the catalog file;
   - the hull file `assets/collision/<name>.obj`: the object's convex collision pieces in the object frame, made
     from the packaged pieces, the mesh's convex hull, or a coacd convex decomposition (the slow one, seconds to
     minutes per mesh; run here and committed, never at environment reset).
-Each hull file starts with a fingerprint of its inputs (for a `file` source, the mesh files' contents too); a second
+Each hull file starts with a fingerprint of its inputs (for a `file` source, the mesh files' contents too; for a
+`modelled` source, a hash of what the generator makes, so a changed generator is rebuilt); a second
 run skips objects whose inputs did not change, so the command is idempotent and cheap to repeat. coacd's pieces are
 also kept in the cache folder under a hash of the mesh and the settings, so the same mesh is decomposed once.
 """
@@ -76,7 +79,7 @@ def file_digest(paths: list[Path]) -> str:
     return digest.hexdigest()[:16]
 
 
-def _fingerprint(name: str, entry: dict, folder: Path | None = None) -> str:
+def _fingerprint(name: str, entry: dict, folder: Path | None = None, model_digest: str | None = None) -> str:
     source, transform = entry["source"], entry.get("transform", {})
     key = {
         "name": name,
@@ -89,6 +92,8 @@ def _fingerprint(name: str, entry: dict, folder: Path | None = None) -> str:
     }
     if source["kind"] == "file":  # a user's file may change under the same name
         key["mesh_digest"] = file_digest(mesh_files(entry, folder))
+    if model_digest is not None:  # a generator may change under the same parameters
+        key["model_digest"] = model_digest
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -202,12 +207,52 @@ def build_object(
             notes["coacd_cached"] = cached
     else:
         raise ValueError(f"{name}: collision method {method!r} is not one of {', '.join(COLLISION_METHODS)}")
-    hulls = [_small_hull(piece + translation) for piece in pieces if len(piece) >= 4]
-    write_hulls(hull_path, hulls)
-    text = hull_path.read_text(encoding="utf-8")
-    hull_path.write_text(f"{FINGERPRINT_PREFIX}{fingerprint}\n{text}", encoding="utf-8")
+    _write_hull_file(hull_path, [piece + translation for piece in pieces], fingerprint)
     spec["translation"] = [round(float(t), 5) for t in translation]
     entry["dimensions"] = [round(float(d), 4) for d in high - low]
+    return True
+
+
+def _write_hull_file(path: Path, pieces: list[np.ndarray], fingerprint: str) -> None:
+    """Write convex pieces (vertex arrays, object frame) as a hull file that starts with its inputs' fingerprint."""
+    write_hulls(path, [_small_hull(piece) for piece in pieces if len(piece) >= 4])
+    text = path.read_text(encoding="utf-8")
+    path.write_text(f"{FINGERPRINT_PREFIX}{fingerprint}\n{text}", encoding="utf-8")
+
+
+def build_modelled(
+    name: str, entry: dict, out_dir: Path, catalog_file: Path, force: bool = False, notes: dict | None = None
+) -> bool:
+    """Write a modelled entry's hull file and fill in its dimensions (and a container's interior); False when
+    already current. `notes`, when given, receives `coacd_cached` for the coacd method."""
+    from robolab_ms.catalog.schema import MODELLED_COLLISION_METHODS, modelled_model
+    from robolab_ms.errors import SpecError
+
+    model = modelled_model(name, entry, catalog_file)
+    method = entry.get("collision", {}).get("method") if isinstance(entry.get("collision"), dict) else None
+    if method not in MODELLED_COLLISION_METHODS:
+        raise SpecError(
+            catalog_file,
+            f"objects.{name}.collision.method",
+            f"must be one of {', '.join(MODELLED_COLLISION_METHODS)} for a modelled object, got {method!r}",
+            "Write collision: {method: modelled_pieces}",
+        )
+    fingerprint = _fingerprint(name, entry, model_digest=model.digest())
+    hull_path = out_dir / entry["collision"].get("file", f"{name}.obj")
+    if not force and _stored_fingerprint(hull_path) == fingerprint and "dimensions" in entry:
+        return False
+    if method == "coacd":
+        solid = model.solid()
+        pieces, cached = coacd_pieces(np.asarray(solid.vertices), np.asarray(solid.faces))
+        if notes is not None:
+            notes["coacd_cached"] = cached
+    else:
+        pieces = list(model.pieces)
+    _write_hull_file(hull_path, pieces, fingerprint)
+    low, high = model.bounds
+    entry["dimensions"] = [round(float(d), 4) for d in high - low]
+    if entry.get("container") and "interior" not in entry and model.interior is not None:
+        entry["interior"] = [round(float(d), 4) for d in model.interior]
     return True
 
 
@@ -250,8 +295,8 @@ def build_catalog(
     force: bool = False,
     progress: Callable[[str], None] = print,
 ) -> BuildReport:
-    """Build every mesh object of a catalog file (or only `names`), then check and rewrite the file (keeping the
-    comment lines it starts with)."""
+    """Build every modelled and mesh object of a catalog file (or only `names`), then check and rewrite the file
+    (keeping the comment lines it starts with)."""
     from robolab_ms.errors import SpecError, UnknownNameError
 
     data = load_yaml(catalog_file)
@@ -274,11 +319,15 @@ def build_catalog(
     for entry in objects.values():
         if entry.get("source", {}).get("kind") == "procedural":
             _describe_procedural(entry)
-    mesh_names = [name for name, entry in objects.items() if entry.get("source", {}).get("kind") in ("mesh", "file")]
+    built_kinds = ("modelled", "mesh", "file")
+    mesh_names = [name for name, entry in objects.items() if entry.get("source", {}).get("kind") in built_kinds]
     selected = [name for name in mesh_names if names is None or name in names]
     for index, name in enumerate(selected, 1):
         start = time.perf_counter()
-        changed = build_object(name, objects[name], out_dir, force, folder=catalog_file.parent)
+        if objects[name]["source"]["kind"] == "modelled":
+            changed = build_modelled(name, objects[name], out_dir, catalog_file, force)
+        else:
+            changed = build_object(name, objects[name], out_dir, force, folder=catalog_file.parent)
         seconds = time.perf_counter() - start
         (report.built if changed else report.skipped).append(name)
         report.seconds[name] = seconds

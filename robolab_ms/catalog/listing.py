@@ -22,6 +22,8 @@ def source_label(entry: CatalogObject) -> str:
     add`) or its asset package."""
     if entry.is_procedural:
         return entry.source["generator"]
+    if entry.is_modelled:
+        return f"modelled {entry.source['generator']}"
     if entry.source["kind"] == "file":
         return f"file in {entry.folder}"
     return entry.source["package"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import inspect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 from pathlib import Path
@@ -24,6 +25,10 @@ from robolab_ms.catalog.appearance import (
     visual_mesh_builder,
 )
 from robolab_ms.catalog.meshes import hull_volume, package_file, read_hulls
+from robolab_ms.catalog.modelled import GENERATORS as MODELLED_GENERATORS
+from robolab_ms.catalog.modelled import PARAM_LIMITS as MODELLED_PARAM_LIMITS
+from robolab_ms.catalog.modelled import Model
+from robolab_ms.catalog.modelled import generate as generate_model
 from robolab_ms.catalog.procedural import (
     GENERATORS,
     PARAM_CHOICES,
@@ -87,7 +92,8 @@ class MeshTransform:
 class CatalogObject:
     """One catalog entry. Procedural objects carry primitive `parts`; mesh objects a visual mesh from an installed
     package (source kind `mesh`) or a file beside their catalog file (source kind `file`, what `robolab catalog add`
-    writes), a `transform` and a hull file of convex collision pieces (`collision_file`)."""
+    writes), a `transform` and a hull file of convex collision pieces (`collision_file`); modelled objects (source
+    kind `modelled`) surfaces made by a generator of robolab_ms.catalog.modelled (`model`) and a hull file."""
 
     name: str
     object_class: str
@@ -114,6 +120,17 @@ class CatalogObject:
     @property
     def is_procedural(self) -> bool:
         return self.source.get("kind") == "procedural"
+
+    @property
+    def is_modelled(self) -> bool:
+        return self.source.get("kind") == "modelled"
+
+    @property
+    def model(self) -> Model | None:
+        """The surfaces and convex pieces of a modelled object (None for other objects); made once per process."""
+        if not self.is_modelled:
+            return None
+        return generate_model(self.source["generator"], self.source["params"])
 
     @cached_property
     def hulls(self) -> tuple[np.ndarray, ...]:
@@ -180,8 +197,9 @@ class CatalogObject:
         return self.mass / self.volume
 
     def visual_files(self) -> list[Path]:
-        """The visual mesh files of a mesh object: packaged, or beside its catalog file (none for procedural objects)."""
-        if self.is_procedural:
+        """The visual mesh files of a mesh object: packaged, or beside its catalog file (none for procedural and
+        modelled objects)."""
+        if self.is_procedural or self.is_modelled:
             return []
         if self.source["kind"] == "file":
             return [self.folder / path for path in self.source["paths"]]
@@ -198,6 +216,8 @@ class CatalogObject:
         looks = scene_renders(scene)
         if self.parts:
             self._add_parts(builder, material, looks)
+        elif self.is_modelled:
+            self._add_model(builder, material, looks)
         else:
             self._add_mesh(builder, material, looks)
         builder.initial_pose = initial_pose
@@ -239,6 +259,15 @@ class CatalogObject:
             )
         else:  # SAPIEN's cylinder visual has no texture coordinates: a generated mesh carries the texture
             builder.add_visual_mesh(cylinder_mesh(part.size[0], part.size[1]), render_material, pose)
+
+    def _add_model(self, builder, material, looks: bool) -> None:
+        """A modelled object: each generated surface with the look of its colour, and the hull file's pieces."""
+        for surface in self.model.surfaces if looks else ():
+            look = part_look(self, surface.tint, surface.kind, surface.rgb, surface.shade)
+            builder.add_visual_mesh(surface.mesh, render_material(look))
+        builder.add_multiple_convex_collisions_from_file(
+            str(self.collision_file), material=material, density=self.density
+        )
 
     def _add_mesh(self, builder, material, looks: bool) -> None:
         import sapien
@@ -294,7 +323,9 @@ COLLISION_METHODS = {
     "packaged_pieces": "convex pieces shipped with the mesh by its package",
     "convex_hull": "the convex hull of the visual mesh (for nearly convex objects)",
     "coacd": "convex decomposition of the visual mesh by coacd, run once by 'robolab catalog build'",
+    "modelled_pieces": "the convex pieces a modelled generator builds with its shape (wall sectors, tube segments)",
 }
+MODELLED_COLLISION_METHODS = ["modelled_pieces", "coacd"]
 MESH_SOURCE_FIELDS = ["kind", "package", "paths", "textured", "collision_pieces"]
 FILE_SOURCE_FIELDS = ["kind", "paths", "textured", "origin"]  # a mesh file beside the catalog file
 
@@ -360,14 +391,14 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     collision = fields.sub("collision", {})
     collision.only(["method", "file"])
     source = fields.sub("source")
-    kind = source.choice("kind", ["procedural", "mesh", "file"])
+    kind = source.choice("kind", ["procedural", "modelled", "mesh", "file"])
     parts: list[Part] = []
     transform = None
     collision_file = None
     if kind == "procedural":
         source.only(["kind", "generator", "params"])
         generator = source.choice("generator", GENERATORS)
-        params = _read_generator_params(source.sub("params", {}), generator)
+        params = _read_generator_params(source.sub("params", {}), generator, GENERATORS[generator])
         try:
             parts = generate(generator, params)
         except (TypeError, ValueError, ArithmeticError) as error:
@@ -377,6 +408,15 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
             interior = procedural_interior(generator, params)
         method = collision.choice("method", ["primitives"], "primitives")
         source_record = {"kind": kind, "generator": generator, "params": params}
+    elif kind == "modelled":
+        source_record, interior = _read_modelled(name, fields, source, is_container, interior)
+        method = collision.choice("method", MODELLED_COLLISION_METHODS)
+        collision_file = collision_dir(fields.file) / collision.get("file", str, f"{name}.obj")
+        transform = MeshTransform()
+        if dimensions is None:
+            raise fields.error(
+                "dimensions", "is missing for a modelled object", "Run 'robolab catalog build' to fill it in"
+            )
     else:
         source.only(MESH_SOURCE_FIELDS if kind == "mesh" else FILE_SOURCE_FIELDS)
         paths = source.get("paths", list)
@@ -413,7 +453,11 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
                 "textured": source.get("textured", bool, False),
                 "collision_pieces": source.get("collision_pieces", str, ""),
             }
-        methods = [m for m in COLLISION_METHODS if m != "primitives" and (kind == "mesh" or m != "packaged_pieces")]
+        methods = [
+            m
+            for m in COLLISION_METHODS
+            if m not in ("primitives", "modelled_pieces") and (kind == "mesh" or m != "packaged_pieces")
+        ]
         method = collision.choice("method", methods)
         if method == "packaged_pieces" and not source_record["collision_pieces"]:
             raise source.error(
@@ -470,13 +514,62 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     )
 
 
+def _read_modelled(
+    name: str, fields: Fields, source: Fields, is_container: bool, interior: list[float] | None
+) -> tuple[dict[str, Any], list[float] | None]:
+    """The source of a modelled object (its generator and checked parameters) and its interior (the generator's,
+    for a container that gives none)."""
+    source.only(["kind", "generator", "params"])
+    if fields.has("transform"):
+        raise fields.error(
+            "transform",
+            "is given for a modelled object",
+            "Leave it out: a generator makes its shape in the object frame",
+        )
+    generator = source.choice("generator", MODELLED_GENERATORS)
+    params = _read_generator_params(
+        source.sub("params", {}), generator, MODELLED_GENERATORS[generator], MODELLED_PARAM_LIMITS
+    )
+    try:
+        model = generate_model(generator, params)
+    except (TypeError, ValueError, ArithmeticError, IndexError) as error:
+        raise source.error(
+            "params", f"do not fit modelled generator '{generator}' ({error})", "Check the values"
+        ) from None
+    extent = model.bounds[1] - model.bounds[0]
+    if not np.isfinite(extent).all() or extent.min() <= 0 or extent.max() > MAX_OBJECT_SIZE:
+        raise source.error(
+            "params", f"make an object of size {np.round(extent, 3).tolist()} m", f"Keep it within {MAX_OBJECT_SIZE} m"
+        )
+    if is_container and interior is None:
+        if model.interior is None:
+            raise fields.error(
+                "interior", f"is missing, and generator '{generator}' makes no vessel", "Give the inner size [x, y, z]"
+            )
+        interior = [round(float(d), 4) for d in model.interior]
+    return {"kind": "modelled", "generator": generator, "params": params}, interior
+
+
+def modelled_model(name: str, entry: dict, file: Path) -> Model:
+    """The model of a modelled entry of catalog `file` as written there (before `robolab catalog build` completes
+    it), its source checked as `read_catalog` checks it."""
+    fields = Fields(entry, file, f"objects.{name}")
+    source_record, _ = _read_modelled(name, fields, fields.sub("source"), False, None)
+    return generate_model(source_record["generator"], source_record["params"])
+
+
 GENERATOR_PARAM_LIMITS = {"bend_deg": (0.0, 360.0), "segments": (3, 64), "levels": (1, 20)}
+POINT_LISTS = {"profile": 3}  # parameters that are lists of [r, z] points, and the fewest points each takes
 
 
-def _read_generator_params(params: Fields, generator: str) -> dict[str, Any]:
-    """A procedural generator's parameters, checked against its signature: names, types and ranges (lengths in m
-    up to MAX_OBJECT_SIZE; a length whose default is 0 may be 0, meaning none)."""
-    signature = inspect.signature(GENERATORS[generator]).parameters
+def _read_generator_params(
+    params: Fields, generator: str, function: Callable[..., Any], limits: dict[str, tuple[float, float]] | None = None
+) -> dict[str, Any]:
+    """A generator's parameters (procedural or modelled), checked against its signature: names, types and ranges
+    (lengths in m up to MAX_OBJECT_SIZE; a length whose default is 0 may be 0, meaning none; `limits` other ranges
+    by name)."""
+    limits = {**GENERATOR_PARAM_LIMITS, **(limits or {})}
+    signature = inspect.signature(function).parameters
     for key in params.data:
         if key not in signature:
             raise params.error(
@@ -496,16 +589,30 @@ def _read_generator_params(params: Fields, generator: str) -> dict[str, Any]:
             choices = PARAM_CHOICES.get(key)
             values[key] = params.choice(key, choices) if choices else params.get(key, str)
         elif annotation == "int":
-            low, high = GENERATOR_PARAM_LIMITS[key]
+            low, high = limits[key]
             value = params.get(key, int)
             check_range(value, low, high, False, "", lambda problem, fix, key=key: params.error(key, problem, fix))
             values[key] = value
         elif annotation == "list[float]":
             values[key] = params.number_list(key, 3, low=0.0, high=MAX_OBJECT_SIZE, above=True, unit="m")
+        elif annotation == "list[list[float]]":
+            values[key] = _read_points(params, key, POINT_LISTS.get(key, 1))
         else:
-            low, high = GENERATOR_PARAM_LIMITS.get(key, (0.0, MAX_OBJECT_SIZE))
+            low, high = limits.get(key, (0.0, MAX_OBJECT_SIZE))
             values[key] = params.number(key, low, high, above=default != 0.0)
     return values
+
+
+def _read_points(params: Fields, key: str, fewest: int) -> list[list[float]]:
+    """A list of at least `fewest` [r, z] points (m, each from 0 to MAX_OBJECT_SIZE); errors name the entry."""
+    points = params.get(key, list)
+    if len(points) < fewest:
+        raise params.error(key, f"must list at least {fewest} [r, z] points, got {len(points)}", "Add points")
+    checked = []
+    for index, point in enumerate(points):
+        entry = Fields({f"{key}[{index}]": point}, params.file, params.path)
+        checked.append(entry.number_list(f"{key}[{index}]", 2, low=0.0, high=MAX_OBJECT_SIZE, unit="m"))
+    return checked
 
 
 def _check_parts(source: Fields, parts: list[Part]) -> None:

@@ -344,10 +344,22 @@ class _VisualMesh:
 
 
 def _visual_meshes(entry: CatalogObject, folder: Path) -> list[_VisualMesh]:
-    """The visual meshes of a mesh object in its object frame (the catalog transform applied), each with its
-    texture copied into folder/textures (textured packages) or the object's look (colour only)."""
+    """The visual meshes of a mesh or modelled object in its object frame (the catalog transform applied), each
+    with its texture copied into folder/textures (textured packages) or its look (colour only)."""
     import trimesh
 
+    if entry.is_modelled:  # generated surfaces, already in the object frame, each with its colour's look
+        return [
+            _VisualMesh(
+                s.mesh.vertices,
+                s.mesh.triangles,
+                s.mesh.normals,
+                None,
+                part_look(entry, s.tint, s.kind, s.rgb, s.shade),
+                None,
+            )
+            for s in entry.model.surfaces
+        ]
     transform = entry.transform
     rotation = quat_to_matrix(transform.quaternion)
     meshes = []
