@@ -221,13 +221,15 @@ class EpisodeRecorder:
 
     # ------------------------------------------------------------------------------------------------ internals
     def _read_robot(self) -> None:
+        """What the metrics need every step, and what a trajectory file keeps when one is written."""
         base = self.base
-        self.ee.append(_numpy(base.tcp_pose().raw_pose)[0].astype(np.float32))
-        self.qpos.append(_numpy(base.agent.robot.get_qpos())[0].astype(np.float32))
         self.arm.append(_numpy(base.arm_qpos())[0].astype(np.float32))
         self.arm_velocity.append(_numpy(base.arm_qvel())[0].astype(np.float32))
         self.gripper_base.append(_numpy(base.gripper_base_position())[0].astype(np.float32))
-        self.gripper.append(float(_numpy(base.gripper_closed_fraction()).reshape(-1)[0]))
+        if self.options.writes_file:  # read only for the file: together these cost more than the metrics' reads
+            self.ee.append(_numpy(base.tcp_pose().raw_pose)[0].astype(np.float32))
+            self.qpos.append(_numpy(base.agent.robot.get_qpos())[0].astype(np.float32))
+            self.gripper.append(float(_numpy(base.gripper_closed_fraction()).reshape(-1)[0]))
 
     def _add_video_frame(self, views: dict[str, np.ndarray], step: int, info: dict) -> None:
         from robolab_ms.eval.video import Caption
