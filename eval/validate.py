@@ -9,7 +9,8 @@ Per task over N seeds:
 Episodes of both policies run as the evaluation runner runs them (its `_run_episode`, through eval's EpisodeWorker),
 into OUT/episodes.jsonl, so a rerun resumes. A `ValidationWorker` runs a task's jobs (rest check, random and oracle
 episodes) in one environment without observations (`validation_env`): neither policy reads them, and every reset
-builds a new scene anyway. `validate_task` checks one task in this process; `validate_parallel` (`--workers N`)
+builds a new scene anyway. A random episode's line carries no events and no trajectory metrics: validation reads
+only its success, and tracking them is a fifth of a random step. `validate_task` checks one task in this process; `validate_parallel` (`--workers N`)
 hands the jobs of all tasks, those with the longest episodes first, to eval's worker processes and alone writes the
 folder, with the same rows and episodes.
 
@@ -446,12 +447,15 @@ class ValidationWorker:
 
     def __init__(self, policy: None, config: EvalConfig, out_dir: Path, content_roots: list[str]) -> None:
         """`policy` is unused (validation always runs the random and the oracle policy); the rest as EpisodeWorker."""
+        from robolab_ms.eval.recording import RecordOptions
         from robolab_ms.eval.workers import EpisodeWorker, PolicySpec
         from robolab_ms.policies import PolicyOptions
 
         self.config = config
+        # validation reads only the success of a random episode: its line carries no events and no trajectory metrics
+        configs = {RANDOM: replace(config, record=RecordOptions(metrics=False)), ORACLE: config}
         self.episode_workers = {
-            name: EpisodeWorker(PolicySpec(name, PolicyOptions()), config, out_dir, content_roots)
+            name: EpisodeWorker(PolicySpec(name, PolicyOptions()), configs[name], out_dir, content_roots)
             for name in (RANDOM, ORACLE)
         }
         self.episode_workers[ORACLE].policy = WatchedPolicy(self.episode_workers[ORACLE].policy)
@@ -470,6 +474,7 @@ class ValidationWorker:
         if self.env_task != job.task:
             self.close_env()
             self.env, self.env_task = validation_env(job.task, self.config), job.task
+        self.env.unwrapped.track_events = job.check == ORACLE  # the oracle's events explain its failures
         if job.check == REST:
             return rest_check(self.env, range(job.seed, job.seed + self.config.episodes))
         worker = self.episode_workers[job.check]

@@ -122,6 +122,7 @@ class RoboLabEnv(BaseEnv):
         self._episode_seed_used: int | None = None  # the seed of the current episode; None when not replayable
         self._replaying = False
         self._episode_options: dict = {}
+        self.track_events = True  # from the next reset on; False: no events (`robolab validate`'s random episodes)
         _check_renderer_use(kwargs)
         if kwargs.get("render_backend", "gpu") == "gpu" and not torch.cuda.is_available():
             kwargs["render_backend"] = "cpu"  # what ManiSkill falls back to anyway, without its warning
@@ -221,6 +222,7 @@ class RoboLabEnv(BaseEnv):
             self.scene, actors, entries, fingers, self.device, robot_links=self.agent.robot.get_links()
         )
         self.task_evaluator = TaskEvaluator(spec, self.eval_context)
+        self.task_evaluator.track_events = self.track_events
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict) -> None:
         with torch.device(self.device):
