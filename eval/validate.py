@@ -10,9 +10,9 @@ Episodes of both policies run as the evaluation runner runs them (its `_run_epis
 into OUT/episodes.jsonl, so a rerun resumes. A `ValidationWorker` runs a task's jobs (rest check, random and oracle
 episodes) in one environment without observations (`validation_env`): neither policy reads them, and every reset
 builds a new scene anyway. A random episode's line carries no events and no trajectory metrics: validation reads
-only its success, and tracking them is a fifth of a random step. `validate_task` checks one task in this process; `validate_parallel` (`--workers N`)
-hands the jobs of all tasks, those with the longest episodes first, to eval's worker processes and alone writes the
-folder, with the same rows and episodes.
+only its success, and tracking them is a fifth of a random step. `validate_task` checks one task in this process;
+`validate_parallel` (`--workers N`) hands the jobs of all tasks, those with the longest episodes first, to eval's
+worker processes and alone writes the folder, with the same rows and episodes.
 
 When the oracle fails an episode without raising (it runs out of time), `explain_failure` says why, from what an
 `EpisodeWatch` saw during that episode (which target objects the fingers touched, when and how each contact ended,
