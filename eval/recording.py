@@ -1,5 +1,5 @@
-"""What an episode leaves behind besides its result line: trajectory metrics and event tallies (always), a
-ManiSkill trajectory file (`--record`, `--record-images`) and an mp4 (`--video`).
+"""What an episode leaves behind besides its result line: event tallies (always), trajectory metrics (unless
+`RecordOptions.metrics` is off), a ManiSkill trajectory file (`--record`, `--record-images`) and an mp4 (`--video`).
 
 The runner drives one `EpisodeRecorder` per environment with four calls: `on_reset` after `env.reset`, `on_step`
 after each `env.step`, `finish` when the episode is over (its return value goes into the `EpisodeResult`), and
@@ -63,10 +63,16 @@ class RecordOptions:
     trajectory: bool = False  # ManiSkill trajectory file: actions, env states, proprio, task signals
     images: bool = False  # also the policy cameras' images in the trajectory file (implies trajectory)
     video: bool = False  # an mp4 per episode
+    metrics: bool = True  # trajectory metrics; off (validation's random episodes), nothing is read per step
 
     @property
     def writes_file(self) -> bool:
         return self.trajectory or self.images
+
+    @property
+    def follows_steps(self) -> bool:
+        """Whether the recorder reads anything at each step."""
+        return self.metrics or self.writes_file or self.video
 
 
 def episode_stem(variant: str, robot: str, policy: str, seed: int) -> str:
@@ -141,7 +147,9 @@ class EpisodeRecorder:
         self.gripper_base, self.arm_velocity = [], []
         self.actions, self.success, self.score, self.progress, self.terminated, self.truncated = [], [], [], [], [], []
         self.states: list[dict[str, np.ndarray]] = []
-        self._started = True
+        self._started = self.options.follows_steps
+        if not self._started:
+            return
         self._read_robot()
         if self.options.writes_file:
             self._open_file()
@@ -185,19 +193,20 @@ class EpisodeRecorder:
         if not self._started:
             return extras
         self._started = False
-        targets = np.clip(
-            np.asarray(self.actions, dtype=np.float64).reshape(-1, self.arm_dims + 1)[:, : self.arm_dims],
-            self.arm_low,
-            self.arm_high,
-        )
-        metrics = trajectory_metrics(
-            np.asarray(self.gripper_base),
-            np.asarray(self.arm),
-            targets,
-            1.0 / self.rate_hz,
-            joint_velocities=np.asarray(self.arm_velocity),
-        )
-        extras["metrics"] = {key: (None if math.isnan(value) else round(value, 6)) for key, value in metrics.items()}
+        if self.options.metrics:
+            targets = np.clip(
+                np.asarray(self.actions, dtype=np.float64).reshape(-1, self.arm_dims + 1)[:, : self.arm_dims],
+                self.arm_low,
+                self.arm_high,
+            )
+            metrics = trajectory_metrics(
+                np.asarray(self.gripper_base),
+                np.asarray(self.arm),
+                targets,
+                1.0 / self.rate_hz,
+                joint_velocities=np.asarray(self.arm_velocity),
+            )
+            extras["metrics"] = {key: None if math.isnan(value) else round(value, 6) for key, value in metrics.items()}
         if self.options.writes_file:
             self._write_file(info, events, error)
             extras["recording"] = self.recording_path().relative_to(self.out_dir).as_posix()
@@ -221,13 +230,15 @@ class EpisodeRecorder:
 
     # ------------------------------------------------------------------------------------------------ internals
     def _read_robot(self) -> None:
+        """What the metrics need every step, and what a trajectory file keeps when one is written."""
         base = self.base
-        self.ee.append(_numpy(base.tcp_pose().raw_pose)[0].astype(np.float32))
-        self.qpos.append(_numpy(base.agent.robot.get_qpos())[0].astype(np.float32))
         self.arm.append(_numpy(base.arm_qpos())[0].astype(np.float32))
         self.arm_velocity.append(_numpy(base.arm_qvel())[0].astype(np.float32))
         self.gripper_base.append(_numpy(base.gripper_base_position())[0].astype(np.float32))
-        self.gripper.append(float(_numpy(base.gripper_closed_fraction()).reshape(-1)[0]))
+        if self.options.writes_file:  # read only for the file: together these cost more than the metrics' reads
+            self.ee.append(_numpy(base.tcp_pose().raw_pose)[0].astype(np.float32))
+            self.qpos.append(_numpy(base.agent.robot.get_qpos())[0].astype(np.float32))
+            self.gripper.append(float(_numpy(base.gripper_closed_fraction()).reshape(-1)[0]))
 
     def _add_video_frame(self, views: dict[str, np.ndarray], step: int, info: dict) -> None:
         from robolab_ms.eval.video import Caption

@@ -58,11 +58,11 @@ class EvalConfig:
         return self.episodes_adaptive or self.episodes
 
 
-def env_kwargs(needs_images: bool, config: EvalConfig) -> dict[str, Any]:
+def env_kwargs(needs_images: bool, config: EvalConfig, reads_observations: bool = True) -> dict[str, Any]:
     """The keyword arguments of `gym.make` for every task of this evaluation, for a policy that reads camera
-    images (`needs_images`) or not."""
+    images (`needs_images`), only the state, or no observation at all (not `reads_observations`)."""
     kwargs = {
-        "obs_mode": "rgb" if needs_images else "state_dict",
+        "obs_mode": "rgb" if needs_images else "state_dict" if reads_observations else "none",
         "instruction": config.instruction,
         "robot_uids": config.robot,
         "render_backend": "cpu",
@@ -70,6 +70,11 @@ def env_kwargs(needs_images: bool, config: EvalConfig) -> dict[str, Any]:
     if config.variations:
         kwargs["variations"] = config.variations
     return kwargs
+
+
+def policy_env_kwargs(policy: Policy, config: EvalConfig) -> dict[str, Any]:
+    """`env_kwargs` for what this policy reads."""
+    return env_kwargs(policy.needs_images, config, policy.reads_observations)
 
 
 def adaptive_sampling_done(successes: int, episodes: int, max_episodes: int, ci_width: float) -> bool:
@@ -144,7 +149,7 @@ def _run_all(policy: Policy, config: EvalConfig, out_dir: Path, show_progress: b
                         if env is not None:
                             env.close()
                         bar.set_postfix_str(f"loading {spec.name}")
-                        env = gym.make(spec.env_id, **env_kwargs(policy.needs_images, config))
+                        env = gym.make(spec.env_id, **policy_env_kwargs(policy, config))
                         env_task = spec.name
                         recorder = EpisodeRecorder(env, out_dir, config.record, policy.name)
                     result = _run_episode(env, policy, spec, config, seed, bar, recorder, out_dir)
@@ -373,7 +378,7 @@ def _write_manifest(out_dir: Path, policy: Policy, config: EvalConfig) -> None:
         "config": asdict(config),
         "command": ["robolab", *sys.argv[1:]] if Path(sys.argv[0]).name == "robolab" else list(sys.argv),
         "rerun": rerun_command(policy, config, out_dir),
-        "env_kwargs": env_kwargs(policy.needs_images, config),
+        "env_kwargs": policy_env_kwargs(policy, config),
         **_variation_manifest(config),
         "versions": {pkg: version(pkg) for pkg in ("robolab-ms", "mani-skill", "sapien", "torch", "gymnasium")},
         "python": platform.python_version(),

@@ -6,9 +6,13 @@ Per task over N seeds:
   arm holding still;
 - random policy: its success rate (expected near 0; above 10 % the task is too easy to pass by flailing);
 - oracle: its success rate (at least 90 %) and time per episode.
-Episodes of both policies go through the evaluation runner, into OUT/episodes.jsonl, so a rerun resumes.
-`validate_task` checks one task in this process; `validate_parallel` (`--workers N`) hands the rest checks and the
-episodes of all tasks to eval's worker processes and alone writes the folder, with the same rows and episodes.
+Episodes of both policies run as the evaluation runner runs them (its `_run_episode`, through eval's EpisodeWorker),
+into OUT/episodes.jsonl, so a rerun resumes. A `ValidationWorker` runs a task's jobs (rest check, random and oracle
+episodes) in one environment without observations (`validation_env`): neither policy reads them, and every reset
+builds a new scene anyway. A random episode's line carries no events and no trajectory metrics: validation reads
+only its success, and tracking them is a fifth of a random step. `validate_task` checks one task in this process;
+`validate_parallel` (`--workers N`) hands the jobs of all tasks, those with the longest episodes first, to eval's
+worker processes and alone writes the folder, with the same rows and episodes.
 
 When the oracle fails an episode without raising (it runs out of time), `explain_failure` says why, from what an
 `EpisodeWatch` saw during that episode (which target objects the fingers touched, when and how each contact ended,
@@ -27,7 +31,7 @@ import numpy as np
 
 from robolab_ms.errors import RoboLabError, make_folder
 from robolab_ms.eval.results import EpisodeResult, append_result, episode_key
-from robolab_ms.eval.runner import EvalConfig, run_evaluation
+from robolab_ms.eval.runner import EvalConfig
 from robolab_ms.physics import MAX_DRIFT_M, STABILITY_PHYSICS_STEPS
 
 MAX_RANDOM_SUCCESS = 0.10
@@ -54,37 +58,49 @@ class TaskValidation:
     problems: str
 
 
+def validation_env(task_file: str, config: EvalConfig) -> Any:
+    """The environment one task is validated in: its rest check and its random and oracle episodes run in it one
+    after another (each starts with a reset, which builds a new scene, so each runs as in an environment of its own).
+    Neither policy reads observations (the oracle reads the simulator), so none are built."""
+    import gymnasium as gym
+
+    from robolab_ms.envs import register_task_file
+    from robolab_ms.eval.runner import env_kwargs
+
+    kwargs = env_kwargs(needs_images=False, config=config, reads_observations=False)
+    return gym.make(register_task_file(task_file), task=str(task_file), **kwargs)
+
+
 def check_rest(task: str, seeds: range, variations: str | None = None) -> tuple[float, int]:
     """Largest object drift (m) over 300 physics steps with the arm holding still, and how many seeds count as
     solved right after reset or once the objects have settled with the arm holding still. `task`: a name or a task
     file; `variations`: domain randomization settings."""
-    import gymnasium as gym
-
-    from robolab_ms.envs import register_task_file
     from robolab_ms.tasks.spec import load_task
 
     spec = load_task(task)
-    extra = {"variations": variations} if variations else {}
-    env = gym.make(
-        register_task_file(spec.file), task=str(spec.file), obs_mode="state_dict", render_backend="cpu", **extra
-    )
-    base = env.unwrapped
-    worst, solved = 0.0, 0
+    env = validation_env(str(spec.file), validation_config((str(spec.file),), len(seeds), seeds.start, variations))
     try:
-        for seed in seeds:
-            _, info = env.reset(seed=seed)
-            solved_now = bool(info["success"][0])
-            solved += solved_now
-            start = {name: actor.pose.p[0].clone() for name, actor in base.objects.items()}
-            hold = np.concatenate([base.arm_qpos()[0].numpy(), [0.0]]).astype(np.float32)
-            for _ in range(-(-STABILITY_PHYSICS_STEPS // (base.sim_freq // base.control_freq))):
-                _, _, _, _, info = env.step(hold)
-            # Objects start a few mm above their support: a condition that needs contact holds only once they settle.
-            solved += bool(info["success"][0]) and not solved_now
-            for name, actor in base.objects.items():
-                worst = max(worst, float((actor.pose.p[0] - start[name]).norm()))
+        return rest_check(env, seeds)
     finally:
         env.close()
+
+
+def rest_check(env: Any, seeds: range) -> tuple[float, int]:
+    """`check_rest` in a validation environment of the task (`validation_env`)."""
+    base = env.unwrapped
+    worst, solved = 0.0, 0
+    for seed in seeds:
+        _, info = env.reset(seed=seed)
+        solved_now = bool(info["success"][0])
+        solved += solved_now
+        start = {name: actor.pose.p[0].clone() for name, actor in base.objects.items()}
+        hold = np.concatenate([base.arm_qpos()[0].numpy(), [0.0]]).astype(np.float32)
+        for _ in range(-(-STABILITY_PHYSICS_STEPS // (base.sim_freq // base.control_freq))):
+            _, _, _, _, info = env.step(hold)
+        # Objects start a few mm above their support: a condition that needs contact holds only once they settle.
+        solved += bool(info["success"][0]) and not solved_now
+        for name, actor in base.objects.items():
+            worst = max(worst, float((actor.pose.p[0] - start[name]).norm()))
     return worst, solved
 
 
@@ -127,6 +143,7 @@ class WatchedPolicy:
     def __init__(self, policy: Any) -> None:
         self.policy = policy
         self.name, self.needs_images, self.privileged = policy.name, policy.needs_images, True
+        self.reads_observations = False  # the oracle plans from the simulator it is bound to (`validation_env`)
         self.watches: dict[int, EpisodeWatch] = {}
         self.env: Any = None
 
@@ -336,20 +353,74 @@ def validate_task(
     task: str, seeds: int, out_dir: Path, first_seed: int = 0, show_progress: bool = True, variations: str | None = None
 ) -> TaskValidation:
     """Run every check on one task (a name or a task file), under `variations` if given, in this process; episodes
-    go to `out_dir`."""
+    go to `out_dir` (a rerun resumes from them). The jobs and their order are those a worker of `validate_parallel`
+    runs for the task, in the same kind of worker."""
+    from tqdm import tqdm
+
     from robolab_ms.envs import register_task_file
-    from robolab_ms.policies import make_policy
+    from robolab_ms.eval.results import exclusive_writer, read_results
+    from robolab_ms.eval.runner import _check_same_variations, _write_manifest, _write_tables
     from robolab_ms.tasks.spec import load_task
 
     spec = load_task(task)
     register_task_file(spec.file, replace=True)  # the id loads exactly this file in this process
     seed_range = range(first_seed, first_seed + seeds)
-    rest = check_rest(str(spec.file), seed_range, variations)
     config = validation_config((str(spec.file),), seeds, first_seed, variations)
-    random_results = run_evaluation(make_policy("random"), config, out_dir, show_progress)
-    oracle = WatchedPolicy(make_policy("oracle"))
-    oracle_results = run_evaluation(oracle, config, out_dir, show_progress)
-    return task_row(spec, seed_range, rest, random_results + oracle_results, oracle.watches)
+    out_dir = make_folder(out_dir, "--out")
+    with exclusive_writer(out_dir):
+        results = {r.key(): r for r in read_results(out_dir)}
+        worker = ValidationWorker(None, config, out_dir, [])
+        try:
+            policies = worker.policies()
+            for policy in policies.values():
+                _check_same_variations(results.values(), policy, config, out_dir)
+            _write_manifest(out_dir, policies[ORACLE], config)
+            jobs, done_before = task_jobs(spec, seed_range, config, results)
+            bar = tqdm(
+                total=2 * seeds,
+                initial=done_before,
+                desc=f"validate {spec.name}",
+                unit="episode",
+                disable=not show_progress,
+                dynamic_ncols=True,
+            )
+            rest: tuple[float, int] = (0.0, 0)
+            watches: dict[int, EpisodeWatch] = {}
+            try:
+                for job in jobs:
+                    bar.set_postfix_str(f"{job.check} {job.seed}", refresh=False)
+                    outcome = worker.run(job)
+                    if job.check == REST:
+                        rest = outcome
+                        continue
+                    result, watch = outcome
+                    append_result(out_dir, result)
+                    results[result.key()] = result
+                    if watch is not None:
+                        watches[job.seed] = watch
+                    bar.update(1)
+            finally:
+                bar.close()
+        finally:
+            worker.close()
+        _write_tables(out_dir, policies[ORACLE])  # as `validate_parallel` leaves them
+    return task_row(spec, seed_range, rest, list(results.values()), watches)
+
+
+def task_jobs(
+    spec: Any, seeds: range, config: EvalConfig, results: dict[tuple, EpisodeResult]
+) -> tuple[list[ValidationJob], int]:
+    """A task's validation jobs: its rest check, then its random and its oracle episodes not yet among `results`;
+    and how many of its episodes are there already."""
+    jobs = [ValidationJob(REST, str(spec.file), spec.name, seeds.start)]
+    done = 0
+    for check in (RANDOM, ORACLE):
+        for seed in seeds:
+            if episode_key(spec.name, config.instruction, config.robot, check, seed) in results:
+                done += 1
+            else:
+                jobs.append(ValidationJob(check, str(spec.file), spec.name, seed))
+    return jobs, done
 
 
 # ------------------------------------------------------------------------------------------------ in worker processes
@@ -368,39 +439,65 @@ class ValidationJob:
 
 
 class ValidationWorker:
-    """Runs validation jobs in a worker process of `robolab validate --workers N` (eval's process pool): the rest
-    check as `check_rest` does it in one process, and the random and oracle episodes each through an eval
-    EpisodeWorker of its own, which keeps that policy's environment until a job of another task comes."""
+    """Runs validation jobs, in a worker process of `robolab validate --workers N` (eval's process pool) or in this
+    process (`validate_task`): all the jobs of a task in one environment (`validation_env`), rebuilt when a job of
+    another task comes; the rest check as `check_rest` does it, and the random and oracle episodes each through an
+    eval EpisodeWorker of its own, lent that environment."""
 
     def __init__(self, policy: None, config: EvalConfig, out_dir: Path, content_roots: list[str]) -> None:
         """`policy` is unused (validation always runs the random and the oracle policy); the rest as EpisodeWorker."""
+        from robolab_ms.eval.recording import RecordOptions
         from robolab_ms.eval.workers import EpisodeWorker, PolicySpec
         from robolab_ms.policies import PolicyOptions
 
         self.config = config
+        # validation reads only the success of a random episode: its line carries no events and no trajectory metrics
+        configs = {RANDOM: replace(config, record=RecordOptions(metrics=False)), ORACLE: config}
         self.episode_workers = {
-            name: EpisodeWorker(PolicySpec(name, PolicyOptions()), config, out_dir, content_roots)
+            name: EpisodeWorker(PolicySpec(name, PolicyOptions()), configs[name], out_dir, content_roots)
             for name in (RANDOM, ORACLE)
         }
         self.episode_workers[ORACLE].policy = WatchedPolicy(self.episode_workers[ORACLE].policy)
+        self.env: Any = None
+        self.env_task: str | None = None
+
+    def policies(self) -> dict[str, Any]:
+        """The random policy and the watched oracle, by check."""
+        return {check: worker.policy for check, worker in self.episode_workers.items()}
 
     def run(self, job: ValidationJob) -> tuple[float, int] | tuple[EpisodeResult, EpisodeWatch | None]:
         """A rest check's (largest drift in m, seeds solved at reset), or an episode's result with the oracle's
         watch of it (None for the random policy)."""
         from robolab_ms.eval.schedule import Job
 
+        if self.env_task != job.task:
+            self.close_env()
+            self.env, self.env_task = validation_env(job.task, self.config), job.task
+        self.env.unwrapped.track_events = job.check == ORACLE  # the oracle's events explain its failures
         if job.check == REST:
-            return check_rest(job.task, range(job.seed, job.seed + self.config.episodes), self.config.variations)
+            return rest_check(self.env, range(job.seed, job.seed + self.config.episodes))
         worker = self.episode_workers[job.check]
+        worker.use_env(self.env, job.name)
         result = worker.run(Job(job.task, job.name, job.seed))
         watch = worker.policy.watches.pop(job.seed, None) if job.check == ORACLE else None
         return result, watch
 
+    def close_env(self) -> None:
+        """Close the task's environment (and the episode workers' recorders of it)."""
+        for worker in self.episode_workers.values():
+            worker.close_env()
+        if self.env is not None:
+            self.env.close()
+        self.env, self.env_task = None, None
+
     def close(self) -> None:
         try:
-            self.episode_workers[RANDOM].close()
+            self.close_env()
         finally:
-            self.episode_workers[ORACLE].close()
+            try:
+                self.episode_workers[RANDOM].close()
+            finally:
+                self.episode_workers[ORACLE].close()
 
 
 @dataclass
@@ -443,23 +540,20 @@ def validate_parallel(
     out_dir = make_folder(out_dir, "--out")
     with exclusive_writer(out_dir):
         results = {r.key(): r for r in read_results(out_dir)}
-        policies = {name: make_policy(name) for name in (RANDOM, ORACLE)}
+        policies = {RANDOM: make_policy(RANDOM), ORACLE: WatchedPolicy(make_policy(ORACLE))}
         for policy in policies.values():
             _check_same_variations(results.values(), policy, config, out_dir)
         _write_manifest(out_dir, policies[ORACLE], config)
         todo: list[ValidationJob] = []
-        progress: dict[str, _TaskProgress] = {}
+        progress: dict[str, _TaskProgress] = {}  # in task order, the order of the rows
         done_before = 0
         for spec in specs:
-            jobs = [ValidationJob(REST, str(spec.file), spec.name, first_seed)]
-            for check in (RANDOM, ORACLE):
-                for seed in seed_range:
-                    if episode_key(spec.name, config.instruction, config.robot, check, seed) in results:
-                        done_before += 1
-                    else:
-                        jobs.append(ValidationJob(check, str(spec.file), spec.name, seed))
-            todo += jobs
+            jobs, done = task_jobs(spec, seed_range, config, results)
             progress[spec.name] = _TaskProgress(spec, len(jobs))
+            done_before += done
+            todo += jobs
+        # The tasks with the longest episodes first: the workers then end on short episodes, close together.
+        todo.sort(key=lambda job: -progress[job.name].spec.max_episode_steps)  # stable: each task's jobs in order
         bar = tqdm(
             total=2 * seeds * len(specs),
             initial=done_before,

@@ -33,7 +33,8 @@ class PolicySpec:
 
 
 class EpisodeWorker:
-    """Runs episodes in one process: its own policy instance and one environment, rebuilt only for another task."""
+    """Runs episodes in one process: its own policy instance and one environment, rebuilt only for another task
+    (or one its caller lends it with `use_env`)."""
 
     def __init__(self, policy: PolicySpec, config: EvalConfig, out_dir: Path, content_roots: list[str]) -> None:
         from robolab_ms.content import add_content_root
@@ -52,6 +53,7 @@ class EpisodeWorker:
         self.policy.connect()
         self.env: Any = None
         self.env_task: str | None = None
+        self.owns_env = True  # False while running in an environment lent by the caller (use_env)
         self.recorder: Any = None
         self.specs: dict[str, Any] = {}
         self.bar = tqdm(disable=True)
@@ -61,18 +63,29 @@ class EpisodeWorker:
         import gymnasium as gym
 
         from robolab_ms.eval.recording import EpisodeRecorder
-        from robolab_ms.eval.runner import _reconnect, _run_episode, env_kwargs
+        from robolab_ms.eval.runner import _reconnect, _run_episode, policy_env_kwargs
         from robolab_ms.tasks.spec import load_task
 
         spec = self.specs.get(job.task) or self.specs.setdefault(job.task, load_task(job.task))
         if self.policy.needs_reconnect:
             _reconnect(self.policy, self.config.reconnect_seconds, self.out_dir)
         if self.env_task != spec.name:
-            self._close_env()
-            self.env = gym.make(spec.env_id, **env_kwargs(self.policy.needs_images, self.config))
+            self.close_env()
+            self.env = gym.make(spec.env_id, **policy_env_kwargs(self.policy, self.config))
             self.env_task = spec.name
             self.recorder = EpisodeRecorder(self.env, self.out_dir, self.config.record, self.policy.name)
         return _run_episode(self.env, self.policy, spec, self.config, job.seed, self.bar, self.recorder, self.out_dir)
+
+    def use_env(self, env: Any, task_name: str) -> None:
+        """Run the next episodes of task `task_name` in `env`, an environment made for it by the caller, who also
+        closes it (validation runs its rest check and both policies' episodes of a task in one environment)."""
+        if self.env is env:
+            return
+        from robolab_ms.eval.recording import EpisodeRecorder
+
+        self.close_env()
+        self.env, self.env_task, self.owns_env = env, task_name, False
+        self.recorder = EpisodeRecorder(env, self.out_dir, self.config.record, self.policy.name)
 
     def wait_for_video(self, result: EpisodeResult) -> None:
         """Block until the episode's video file is complete (it is encoded on a background thread)."""
@@ -86,18 +99,18 @@ class EpisodeWorker:
                 raise RoboLabError(f"the video {path} was not finished after {VIDEO_WAIT_SECONDS:g} s")
             time.sleep(0.02)
 
-    def _close_env(self) -> None:
+    def close_env(self) -> None:
+        """Close the recorder and the environment (a lent one stays open: its lender closes it)."""
         if self.recorder is not None:
             self.recorder.close()
             self.recorder = None
-        if self.env is not None:
+        if self.env is not None and self.owns_env:
             self.env.close()
-            self.env = None
-        self.env_task = None
+        self.env, self.env_task, self.owns_env = None, None, True
 
     def close(self) -> None:
         try:
-            self._close_env()
+            self.close_env()
         finally:
             self.policy.close()
 

@@ -224,6 +224,36 @@ def test_require_picked_up_counts_only_what_the_robot_lifted(env):
     assert holds()
 
 
+def test_require_picked_up_needs_the_robot_alone_to_hold_it_up():
+    """A blow from the arm that tips the bin and lifts the keyboard leaning on it, a finger still brushing it, meets
+    RoboLab's `picked_up` but did not pick the keyboard up: the bin still holds it up. KeyboardOutOfBin, random policy,
+    seed 9: before the flag asked for the robot alone, the keyboard so counted as picked up at step 7, landed on
+    the table outside the bin and the task succeeded at step 11."""
+    import gymnasium as gym
+
+    from robolab_ms.policies import RandomPolicy
+    from robolab_ms.tasks.predicates import TABLE, picked_up, was_picked_up
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("KeyboardOutOfBin").env_id, obs_mode="none", render_backend="none")
+    try:
+        base = env.unwrapped
+        policy = RandomPolicy()
+        env.reset(seed=9)
+        policy.reset("", base.single_action_space, 9)
+        context, lifted_on_the_bin = base.eval_context, []
+        for step in range(1, 16):
+            _, _, _, _, info = env.step(policy.act({}))
+            if bool(picked_up(context, ["keyboard"], TABLE, 0.05)[0, 0]):
+                lifted_on_the_bin.append(step)
+                assert float(context.non_robot_forces(["keyboard"])[0, 0]) > 0.1  # the bin's push
+            assert not bool(was_picked_up(context, ["keyboard"])[0, 0])
+            assert not bool(info["success"][0])
+        assert lifted_on_the_bin, "the blow that lifts the keyboard on the tipping bin (step 7) did not come"
+    finally:
+        env.close()
+
+
 def test_placed_in_container_in_order(env):
     def both():
         return (

@@ -122,6 +122,7 @@ class RoboLabEnv(BaseEnv):
         self._episode_seed_used: int | None = None  # the seed of the current episode; None when not replayable
         self._replaying = False
         self._episode_options: dict = {}
+        self.track_events = True  # from the next reset on; False: no events (`robolab validate`'s random episodes)
         _check_renderer_use(kwargs)
         if kwargs.get("render_backend", "gpu") == "gpu" and not torch.cuda.is_available():
             kwargs["render_backend"] = "cpu"  # what ManiSkill falls back to anyway, without its warning
@@ -217,8 +218,11 @@ class RoboLabEnv(BaseEnv):
         home[self._gripper_joint_index.cpu()] = self.robot.gripper_open_qpos
         self._home_qpos = home.to(self.device)
         actors = {**self.objects, TABLE: self.scene_builder.table}
-        self.eval_context = EvalContext(self.scene, actors, entries, fingers, self.device)
+        self.eval_context = EvalContext(
+            self.scene, actors, entries, fingers, self.device, robot_links=self.agent.robot.get_links()
+        )
         self.task_evaluator = TaskEvaluator(spec, self.eval_context)
+        self.task_evaluator.track_events = self.track_events
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict) -> None:
         with torch.device(self.device):
@@ -286,7 +290,11 @@ class RoboLabEnv(BaseEnv):
     def gripper_base_position(self) -> torch.Tensor:
         """Position of the gripper's base link (the robot binding's `gripper_base_link`), the point the
         end-effector metrics follow: (num_envs, 3), m."""
-        return self.agent.robot.links_map[self.robot.gripper_base_link].pose.p
+        link = self.agent.robot.links_map[self.robot.gripper_base_link]
+        if self.gpu_sim_enabled:
+            return link.pose.p
+        # on the CPU simulator, the same float32 numbers read straight from SAPIEN (a hundred times faster)
+        return torch.from_numpy(np.stack([body.entity_pose.p for body in link._objs]))
 
     def set_arm_qpos(self, arm_qpos: torch.Tensor | list[float]) -> None:
         """Teleport the arm to these joint positions (rad), for every environment; the gripper stays as it is."""

@@ -91,6 +91,9 @@ class Policy:
             passes DROID's keys (robolab_ms.envs.DroidObservation: `exterior_image_1_left`, `wrist_image_left`,
             `joint_position`, `gripper_position`, `eef_pose`, `prompt`, each with a leading env dimension);
             otherwise `act` gets the env's state observation.
+        reads_observations: False for a policy whose `act` never looks at its argument (the random policy): the
+            runner then makes the env without observations (`obs_mode="none"`), which saves building them every
+            step, and `act` gets an empty dict.
         privileged: whether it reads the simulator's true state (the runner then calls `bind(env)` after each
             environment reset); only reference policies such as the oracle do.
         endpoint: where the policy runs: `in-process`, a server address (`ws://host:port`, `tcp://host:port`) or
@@ -104,6 +107,7 @@ class Policy:
     name: str = "policy"
     made_as: str | None = None
     needs_images: bool = True
+    reads_observations: bool = True
     privileged: bool = False
     endpoint: str = "in-process"
     episode: EpisodeInfo | None = None
@@ -158,13 +162,19 @@ class RandomPolicy(Policy):
 
     name = "random"
     needs_images = False
+    reads_observations = False
 
     def reset(self, instruction: str, action_space: spaces.Box, seed: int) -> None:
         self.space = spaces.Box(action_space.low, action_space.high, dtype=np.float32)
         self.space.seed(seed)
+        self._bounded = self.space.is_bounded()
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
-        return self.space.sample()
+        if not self._bounded:
+            return self.space.sample()
+        # Box.sample's draw for a space bounded on every side, without its per-call masks (a third of a step's cost)
+        space = self.space
+        return space.np_random.uniform(space.low, space.high, size=space.shape).astype(np.float32)
 
 
 class HoldPolicy(Policy):

@@ -42,6 +42,7 @@ class ReplayPolicy(Policy):
 
     name = "replay"
     needs_images = False
+    reads_observations = False
 
     def __init__(self, replay_from: Path | str | None, replay_policy: str | None = None) -> None:
         if replay_from is None:

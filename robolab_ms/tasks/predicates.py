@@ -99,7 +99,7 @@ def released(ctx: EvalContext, objects: list[str]) -> torch.Tensor:
 def picked_up(ctx: EvalContext, objects: list[str], surface: str, distance: float) -> torch.Tensor:
     """Grasped, with every bounding-box corner at least `distance` (m) above the top of `surface`."""
     top = ctx.top_z(surface)
-    lifted = _each(objects, lambda name: ctx.corners(name)[:, :, 2].min(dim=1).values >= top + distance)
+    lifted = _each(objects, lambda name: ctx.corners(name)[:, :, 2].amin(dim=1) >= top + distance)
     return lifted & grasped(ctx, objects)
 
 
@@ -314,9 +314,13 @@ def _per_object(ctx: EvalContext, condition: Condition) -> torch.Tensor:
 
 
 def was_picked_up(ctx: EvalContext, objects: list[str]) -> torch.Tensor:
-    """Whether each object has been picked up off the table (`picked_up`, PICKED_UP_DISTANCE) at some step of this
-    episode so far: set down by the robot, not knocked or swept there."""
+    """Whether each object has been picked up off the table at some step of this episode so far: `picked_up`
+    (PICKED_UP_DISTANCE) while nothing but the robot touched it, so the robot alone held it up. It was set down by
+    the robot, not knocked or swept there, nor flung up by a blow or lifted on something the arm tipped while a
+    finger brushed it."""
     lifted = picked_up(ctx, objects, TABLE, PICKED_UP_DISTANCE)
+    if bool(lifted.any()):  # the contact pass only when a finger touches an object well above the table
+        lifted = lifted & (ctx.non_robot_forces(objects) <= CONTACT_FORCE_N)
     seen = ctx.memory(
         ("picked_up_once", tuple(objects)),
         lambda: torch.zeros(ctx.num_envs, len(objects), dtype=torch.bool, device=ctx.device),

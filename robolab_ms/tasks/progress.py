@@ -110,7 +110,7 @@ class ProgressTracker:
         if table.logical == "all":
             return scores.mean(dim=1)
         if table.logical == "any":
-            return scores.max(dim=1).values
+            return scores.amax(dim=1)
         return scores.topk(min(table.k, scores.shape[1]), dim=1).values.mean(dim=1)
 
 
