@@ -2,7 +2,9 @@
 
 import subprocess
 import sys
+import tomllib
 import zipfile
+from pathlib import Path
 
 import pytest
 
@@ -57,6 +59,20 @@ def test_sub_packages_and_their_files_ship(wheel_names):
         "robolab_ms/analysis/leaderboard/page.js",
     ):
         assert expected in wheel_names, expected
+
+
+def test_every_package_folder_is_listed_in_pyproject():
+    """pyproject lists packages explicitly: a package folder (one with __init__.py) left out of the list is not
+    installed, although a stale build folder or egg-info in a checkout can hide that from a wheel built there."""
+    root = Path(__file__).resolve().parent.parent
+    listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    folders = {
+        ".".join(init.parent.relative_to(root).parts)
+        for init in (root / "robolab_ms").rglob("__init__.py")
+        if "__pycache__" not in init.parts
+    }
+    missing = sorted(folders - listed)
+    assert not missing, f"pyproject.toml [tool.setuptools] packages: add {missing}"
 
 
 @pytest.mark.slow
