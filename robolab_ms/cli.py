@@ -647,10 +647,10 @@ GRASP_CLEARANCE = 0.005  # m: an object "fits" the open gripper with at least th
 
 def _cmd_catalog_list(args: argparse.Namespace) -> int:
     from robolab_ms.catalog import DROID_GRIPPER_OPENING as GRIPPER_OPENING
-    from robolab_ms.catalog import narrowest_width
+    from robolab_ms.catalog import SHAPE_KINDS, narrowest_width
 
     catalog = _catalog_of(args)
-    rows = [("object", "class", "size x y z (cm)", "grasp (cm)", "fits", "colours", "mass (kg)", "source")]
+    rows = [("object", "class", "shape", "size x y z (cm)", "grasp (cm)", "fits", "colours", "mass (kg)", "source")]
     for name in catalog.names():
         entry = catalog[name]
         if entry.is_procedural:
@@ -666,6 +666,7 @@ def _cmd_catalog_list(args: argparse.Namespace) -> int:
             (
                 name,
                 entry.object_class,
+                entry.shape,
                 size,
                 f"{width * 100:.1f}",
                 fits,
@@ -678,12 +679,24 @@ def _cmd_catalog_list(args: argparse.Namespace) -> int:
     for row in rows:
         print("  ".join(cell.ljust(width) for cell, width in zip(row, widths)).rstrip())
     print(
-        f"\n{len(catalog)} object(s). grasp: the narrowest horizontal width as the object stands; fits: whether "
+        f"\n{len(catalog)} object(s): {_shape_counts(catalog)}. shape: how the object's form was made ("
+        + "; ".join(f"{kind}: {meaning}" for kind, meaning in SHAPE_KINDS.items())
+        + "). grasp: the narrowest horizontal width as the object stands; fits: whether "
         f"that is under the DROID gripper's {GRIPPER_OPENING * 1000:.0f} mm opening with "
         f"{GRASP_CLEARANCE * 1000:.0f} mm to spare on each side (yes), under it (tight) or not (no; a thin part such "
         "as a handle or rim may still be graspable)"
     )
     return 0
+
+
+def _shape_counts(catalog) -> str:
+    """How many objects have each shape kind, e.g. '41 scanned, 35 modelled, 223 primitive'."""
+    from robolab_ms.catalog import SHAPE_KINDS
+
+    counts = {kind: 0 for kind in SHAPE_KINDS}
+    for entry in catalog.objects.values():
+        counts[entry.shape] += 1
+    return ", ".join(f"{count} {kind}" for kind, count in counts.items())
 
 
 def _cmd_catalog_add(args: argparse.Namespace) -> int:
@@ -705,13 +718,14 @@ def _cmd_catalog_add(args: argparse.Namespace) -> int:
         allow_open=args.allow_open,
         replace=args.replace,
         sheet=not args.no_sheet,
+        shape=args.shape,
     )
     print(describe(result))
     return 0
 
 
 def _add_catalog_add_command(actions) -> None:
-    from robolab_ms.catalog import COLOR_NAMES, OBJECT_CLASSES
+    from robolab_ms.catalog import COLOR_NAMES, OBJECT_CLASSES, SHAPE_KINDS
     from robolab_ms.catalog.add import (
         CLASS_DENSITY,
         DEFAULT_CONTENT,
@@ -780,6 +794,12 @@ def _add_catalog_add_command(actions) -> None:
         default=list(DEFAULT_FRICTION),
         metavar=("STATIC", "DYNAMIC"),
         help=f"friction coefficients (default {DEFAULT_FRICTION[0]:g} {DEFAULT_FRICTION[1]:g})",
+    )
+    add.add_argument(
+        "--shape",
+        choices=list(SHAPE_KINDS),
+        default="modelled",
+        help="how the mesh's form was made: scanned (a 3D scan of a real object), modelled (default) or primitive",
     )
     add.add_argument("--origin", help="where the mesh comes from (web address, author); default: marked TO FILL IN")
     add.add_argument("--license", help="the mesh's licence, e.g. CC-BY-4.0; default: marked TO FILL IN")

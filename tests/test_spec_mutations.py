@@ -179,6 +179,8 @@ def catalog_expectation(entry: dict, prefix: str, path: str, mutation: str, defa
         return None if "rgba" in entry else default
     if field == "container" and mutation == "missing":
         return f"{prefix}.interior" if "interior" in entry else None  # an interior needs container: true
+    if field == "shape" and mutation == "missing":
+        return None if procedural else default  # a generated object is primitive unless it says modelled
     if field in ("interior", "dimensions", "collision", "collision.method") and mutation == "missing":
         return None if procedural else f"{prefix}.{field.split('.')[0]}" + (".method" if "collision" in field else "")
     if not procedural or not field.startswith("source.params"):
