@@ -3,6 +3,7 @@ scene footprints under jitter, and an installation made by `make` reading the ch
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -230,10 +231,12 @@ def test_catalog_list_shows_graspable_width_and_colours():
     result = robolab("catalog", "list")
     assert result.returncode == 0, result.stderr
     header, *rows = result.stdout.splitlines()
-    assert header.split()[:2] == ["object", "class"] and "grasp (cm)" in header and "colours" in header
+    assert header.split()[:3] == ["object", "class", "shape"] and "grasp (cm)" in header and "colours" in header
     by_name = {row.split()[0]: row for row in rows if row.strip()}
     banana, bowl = by_name["banana"].split(), by_name["bowl_white"].split()
     assert "yes" in banana and "yellow" in banana and "no" in bowl and "white" in bowl
+    assert banana[2] == "primitive" and by_name["ketchup"].split()[2] == "scanned"  # HOPE's scanned bottle
+    assert re.search(r"\d+ scanned, \d+ modelled, \d+ primitive", result.stdout)
     assert "85 mm opening" in result.stdout
 
 

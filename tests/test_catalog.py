@@ -34,6 +34,7 @@ version: 1
 objects:
   apple_test:
     class: fruit
+    shape: modelled
     description: a test apple
     colors: [green]
     mass: 0.18
@@ -44,6 +45,7 @@ objects:
     license: test
   ketchup_test:
     class: bottle
+    shape: scanned
     description: a test ketchup bottle, standing
     colors: [red]
     mass: 0.3
@@ -123,6 +125,48 @@ def test_bad_mesh_entries_are_explained(tmp_path, change, match):
     )
     with pytest.raises(SpecError, match=match):
         read_catalog(file)
+
+
+def test_a_packaged_mesh_must_say_how_its_shape_was_made(tmp_path):
+    file = tmp_path / "catalog.yaml"
+    apple = MESH_ENTRIES.split("  ketchup_test:")[0].replace(
+        "{method: packaged_pieces}", "{method: packaged_pieces}\n    dimensions: [0.1, 0.1, 0.1]"
+    )
+    file.write_text(apple)
+    assert read_catalog(file)["apple_test"].shape == "modelled"
+    file.write_text(apple.replace("    shape: modelled\n", ""))
+    with pytest.raises(SpecError, match=r"apple_test.shape.*is missing for a packaged mesh.*scanned, modelled"):
+        read_catalog(file)
+    file.write_text(apple.replace("shape: modelled", "shape: scaned"))
+    with pytest.raises(SpecError, match=r"apple_test.shape.*'scaned' is not one of.*Did you mean 'scanned'"):
+        read_catalog(file)
+
+
+def test_procedural_objects_are_primitive_unless_modelled_and_never_scanned(tmp_path):
+    data = load_yaml(load_catalog().file)
+    banana = {key: value for key, value in data["objects"]["banana"].items() if key != "shape"}
+    file = tmp_path / "catalog.yaml"
+    file.write_text(dump_catalog({"objects": {"banana": banana}}))
+    assert read_catalog(file)["banana"].shape == "primitive"  # the default of a generated object
+    file.write_text(dump_catalog({"objects": {"banana": {**banana, "shape": "modelled"}}}))
+    assert read_catalog(file)["banana"].has_real_shape
+    file.write_text(dump_catalog({"objects": {"banana": {**banana, "shape": "scanned"}}}))
+    with pytest.raises(SpecError, match=r"banana.shape.*'scanned' for a procedural object.*modelled"):
+        read_catalog(file)
+
+
+def test_every_shipped_entry_states_its_shape_kind():
+    """The shipped catalog writes every shape kind out; scans are the HOPE and Google Scanned Objects meshes."""
+    entries = load_yaml(load_catalog().file)["objects"]
+    assert [name for name, entry in entries.items() if "shape" not in entry] == []
+    catalog = load_catalog()
+    for name in catalog.names():
+        entry = catalog[name]
+        paths = " ".join(entry.source.get("paths", []))
+        if "stable_hope_objects" in paths or "stable_scanned_objects" in paths:
+            assert entry.shape == "scanned", name
+        if entry.is_procedural:
+            assert entry.shape != "scanned", name
 
 
 @pytest.mark.slow

@@ -67,6 +67,7 @@ def test_a_box_in_millimetres_is_refused_then_added_with_its_scale(tmp_path, cap
     assert np.allclose(entry.bounds, [[-0.03, -0.02, 0.0], [0.03, 0.02, 0.09]], atol=1e-3)  # bottom centre at 0
     assert entry.source["kind"] == "file" and entry.source["origin"].startswith(TO_FILL)
     assert entry.license.startswith(TO_FILL)
+    assert entry.shape == "modelled"  # a mesh of the user's own, unless --shape says otherwise
     assert entry.visual_files() == [content / "assets" / "meshes" / "parcel" / "box_mm.obj"]
     assert entry.collision_file == content / "assets" / "collision" / "parcel.obj" and entry.collision_file.is_file()
     assert entry.mass == pytest.approx(CLASS_DENSITY["box"] * 0.06 * 0.04 * 0.09, rel=0.01)
@@ -91,11 +92,13 @@ def test_a_torus_keeps_its_hole_and_coacd_runs_once_per_mesh(tmp_path, capsys):
         "--content",
         str(content),
         "--no-sheet",
+        "--shape",
+        "primitive",
     )
     assert code == 0, err
     assert "coacd: cached" not in out and len(list((tmp_path / "cache" / "coacd").glob("*.npz"))) == 1
     entry = read_catalog(content / "assets" / "catalog.yaml")["ring"]
-    assert entry.mass == 0.08 and entry.colors == ("orange",)
+    assert entry.mass == 0.08 and entry.colors == ("orange",) and entry.shape == "primitive"  # a torus
     assert len(entry.hulls) > 4  # a convex decomposition, not one hull
     centre = np.array([[0.0, 0.0, entry.recorded_dimensions[2] / 2]])
     assert not any(trimesh.convex.convex_hull(hull).contains(centre)[0] for hull in entry.hulls)  # the hole is free

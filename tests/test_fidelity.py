@@ -3,6 +3,8 @@ shadows are on; sensor effects and the render-quality switch behave."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -11,9 +13,17 @@ from robolab_ms.catalog import load_catalog
 from robolab_ms.catalog.appearance import SURFACES, make_texture, part_look
 from robolab_ms.envs.cameras import RENDER_QUALITIES, SensorEffects, check_render_quality, shader_config
 from robolab_ms.errors import RoboLabError
-from robolab_ms.fidelity import TEXTURED_TARGET, _fidelity_env_class, fidelity_report, measure_scene
+from robolab_ms.fidelity import (
+    REAL_SHAPE_FLOOR,
+    TEXTURED_TARGET,
+    _fidelity_env_class,
+    fidelity_report,
+    measure_scene,
+    shape_counts,
+)
 from robolab_ms.scene import load_scene, scene_names
 from robolab_ms.scene.backgrounds import load_looks, panorama_image
+from robolab_ms.tasks.spec import load_all_tasks
 
 
 @pytest.fixture(scope="module")
@@ -62,6 +72,32 @@ def test_void_measure_catches_the_old_grid_floor(monkeypatch):
         env.close()
     assert scene.regions.get("grid ground", 0) > 0
     assert scene.void_pixels / scene.pixels > 0.2
+
+
+@pytest.fixture(scope="module")
+def tasks():
+    return load_all_tasks()
+
+
+def test_real_shape_share_holds_the_floor_and_is_what_the_docs_say(tasks):
+    """Task-target instances with a scanned or modelled shape, counted from the catalog, scenes and tasks."""
+    counts = shape_counts(tasks=tasks)
+    assert counts.target_share >= REAL_SHAPE_FLOOR, counts.text()
+    assert sum(counts.targets.values()) > 150 and sum(counts.instances.values()) > 350  # every RoboLab-120 task
+    docs = (Path(__file__).parents[1] / "docs" / "fidelity.md").read_text(encoding="utf-8")
+    assert counts.text() in docs, f"docs/fidelity.md should show:\n{counts.text()}"
+
+
+def test_shape_counts_count_each_target_once_per_scene(tasks):
+    """bananas_5_grey_bin's three tasks name five bananas, some in two or three tasks; colored_blocks' two tasks the
+    same four blocks: nine target instances, each counted once."""
+    catalog = load_catalog()
+    counts = shape_counts(["bananas_5_grey_bin", "colored_blocks"], tasks)
+    banana = catalog[load_scene("bananas_5_grey_bin").placement("banana").asset].shape
+    assert counts.tasks == 5 and counts.scenes == 2
+    assert sum(counts.targets.values()) == 9 and counts.targets[banana] >= 5
+    assert counts.targets["primitive"] >= 4  # the four wooden blocks
+    assert sum(counts.instances.values()) == len(load_scene("bananas_5_grey_bin").objects) + 4
 
 
 def test_every_catalog_object_gets_a_known_surface():

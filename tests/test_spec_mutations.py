@@ -183,6 +183,8 @@ def catalog_expectation(entry: dict, prefix: str, path: str, mutation: str, defa
         return f"{prefix}.interior" if "interior" in entry else None  # an interior needs container: true
     if field == "interior" and mutation == "missing" and modelled:
         return None  # a modelled container's interior comes from its generator, as a procedural one's
+    if field == "shape" and mutation == "missing":
+        return None if procedural or modelled else default  # a generated object is primitive unless it says modelled
     if field in ("interior", "dimensions", "collision", "collision.method") and mutation == "missing":
         return None if procedural else f"{prefix}.{field.split('.')[0]}" + (".method" if "collision" in field else "")
     if not (procedural or modelled) or not field.startswith("source.params"):

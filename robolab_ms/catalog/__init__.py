@@ -9,6 +9,8 @@ prints in `.listing`.
 from robolab_ms.catalog.schema import (
     COLOR_NAMES,
     OBJECT_CLASSES,
+    REAL_SHAPES,
+    SHAPE_KINDS,
     Catalog,
     CatalogObject,
     load_catalog,
@@ -21,6 +23,8 @@ from robolab_ms.catalog.schema import (
 __all__ = [
     "COLOR_NAMES",
     "OBJECT_CLASSES",
+    "REAL_SHAPES",
+    "SHAPE_KINDS",
     "Catalog",
     "CatalogObject",
     "load_catalog",

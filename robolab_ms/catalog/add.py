@@ -26,6 +26,7 @@ from robolab_ms.catalog.schema import (
     COLOR_NAMES,
     MAX_MASS,
     OBJECT_CLASSES,
+    SHAPE_KINDS,
     MeshTransform,
     collision_dir,
     load_catalog,
@@ -366,6 +367,7 @@ def add_object(
     allow_open: bool = False,
     replace: bool = False,
     sheet: bool = True,
+    shape: str = "modelled",
     progress: Callable[[str], None] = print,
 ) -> AddResult:
     """Add a mesh file as catalog object `name` to a user content folder (see the module docstring)."""
@@ -377,6 +379,10 @@ def add_object(
         raise RoboLabError(
             f"--class '{object_class}' is not an object class ({', '.join(OBJECT_CLASSES)}). "
             f"{did_you_mean(object_class, OBJECT_CLASSES)}"
+        )
+    if shape not in SHAPE_KINDS:
+        raise RoboLabError(
+            f"--shape '{shape}' is not a shape kind ({', '.join(SHAPE_KINDS)}). {did_you_mean(shape, SHAPE_KINDS)}"
         )
     for colour in colors or []:
         if colour not in COLOR_NAMES:
@@ -420,6 +426,7 @@ def add_object(
         staging.rename(mesh_folder)
         entry = {
             "class": object_class,
+            "shape": shape,
             "description": description or f"A {name.replace('_', ' ')} (added from {source.name}).",
             "colors": list(colors or [survey.colour or "grey"]),
             "mass": mass or 1.0,  # replaced below by the class density times the collision volume

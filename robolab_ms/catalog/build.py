@@ -37,8 +37,8 @@ MAX_HULL_VERTICES = 64  # per convex piece; PhysX allows 255, fewer keeps the hu
 COACD_PARAMS = {"threshold": 0.05, "max_convex_hull": 24, "preprocess_resolution": 40, "seed": 0}
 FINGERPRINT_PREFIX = "# inputs "
 KEY_ORDER = [
-    "class", "description", "colors", "rgba", "mass", "friction", "restitution", "container", "interior", "fixture",
-    "dimensions", "source", "transform", "collision", "license",
+    "class", "shape", "description", "colors", "rgba", "mass", "friction", "restitution", "container", "interior",
+    "fixture", "dimensions", "source", "transform", "collision", "license",
 ]  # fmt: skip
 
 HEADER = """\

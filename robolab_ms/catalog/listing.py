@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from robolab_ms.agents.droid_model import RATED_OPENING
-from robolab_ms.catalog.schema import Catalog, CatalogObject, narrowest_width
+from robolab_ms.catalog.schema import SHAPE_KINDS, Catalog, CatalogObject, narrowest_width
 
 GRASP_CLEARANCE = 0.005  # m: an object "fits" the open gripper with at least this much room on each side
-LISTING_HEADER = ("object", "class", "size x y z (cm)", "grasp (cm)", "fits", "colours", "mass (kg)", "source")
+LISTING_HEADER = ("object", "class", "shape", "size x y z (cm)", "grasp (cm)", "fits", "colours", "mass (kg)", "source")
 
 
 def grasp_fit(width: float) -> str:
@@ -30,7 +30,7 @@ def source_label(entry: CatalogObject) -> str:
 
 
 def listing_rows(catalog: Catalog) -> list[tuple[str, ...]]:
-    """LISTING_HEADER, then per object in name order: class, size, graspable width, fit, colours, mass and source."""
+    """LISTING_HEADER, then per object in name order: class, shape kind, size, graspable width, fit, colours, mass and source."""
     rows = [LISTING_HEADER]
     for name in catalog.names():
         entry = catalog[name]
@@ -40,6 +40,7 @@ def listing_rows(catalog: Catalog) -> list[tuple[str, ...]]:
             (
                 name,
                 entry.object_class,
+                entry.shape,
                 size,
                 f"{width * 100:.1f}",
                 grasp_fit(width),
@@ -52,10 +53,20 @@ def listing_rows(catalog: Catalog) -> list[tuple[str, ...]]:
 
 
 def listing_note(catalog: Catalog) -> str:
-    """The line under the table: how many objects, and what `grasp` and `fits` mean."""
+    """The line under the table: how many objects of each shape kind, and what `shape`, `grasp` and `fits` mean."""
     return (
-        f"{len(catalog)} object(s). grasp: the narrowest horizontal width as the object stands; fits: whether "
+        f"{len(catalog)} object(s): {shape_counts_text(catalog)}. shape: how the object's form was made ("
+        + "; ".join(f"{kind}: {meaning}" for kind, meaning in SHAPE_KINDS.items())
+        + "). grasp: the narrowest horizontal width as the object stands; fits: whether "
         f"that is under the DROID gripper's {RATED_OPENING * 1000:.0f} mm opening with "
         f"{GRASP_CLEARANCE * 1000:.0f} mm to spare on each side (yes), under it (tight) or not (no; a thin part such "
         "as a handle or rim may still be graspable)"
     )
+
+
+def shape_counts_text(catalog: Catalog) -> str:
+    """How many objects have each shape kind, e.g. '41 scanned, 35 modelled, 223 primitive'."""
+    counts = {kind: 0 for kind in SHAPE_KINDS}
+    for entry in catalog.objects.values():
+        counts[entry.shape] += 1
+    return ", ".join(f"{count} {kind}" for kind, count in counts.items())

@@ -60,6 +60,13 @@ OBJECT_CLASSES = (
     "fruit", "vegetable", "food", "container", "tableware", "utensil", "tool", "toy", "block",
     "electronics", "bottle", "can", "box", "furniture", "other",
 )  # fmt: skip
+SHAPE_KINDS = {
+    "scanned": "a 3D scan of a real object (HOPE, Google Scanned Objects, a scanned figure)",
+    "modelled": "a mesh modelled after the real object: by hand, in CAD, or by a generator from a revolved or swept "
+    "profile",
+    "primitive": "boxes, cylinders, spheres, capsules or a torus standing in for the object",
+}
+REAL_SHAPES = ("scanned", "modelled")  # the shape kinds that show the real object's form
 
 
 @dataclass(frozen=True)
@@ -116,6 +123,7 @@ class CatalogObject:
     collision_file: Path | None = None
     palette: tuple[tuple[float, float, float, float], ...] = ()
     folder: Path | None = None  # the catalog file's folder: where the paths of a `file` source start
+    shape: str = "primitive"  # how its form was made: one of SHAPE_KINDS
 
     @property
     def is_procedural(self) -> bool:
@@ -131,6 +139,11 @@ class CatalogObject:
         if not self.is_modelled:
             return None
         return generate_model(self.source["generator"], self.source["params"])
+
+    @property
+    def has_real_shape(self) -> bool:
+        """Whether the object shows the real object's form (a scan or a model), not a stand-in of primitives."""
+        return self.shape in REAL_SHAPES
 
     @cached_property
     def hulls(self) -> tuple[np.ndarray, ...]:
@@ -359,6 +372,7 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
             "transform",
             "collision",
             "fixture",
+            "shape",
         ]
     )
     colors = fields.get("colors", list)
@@ -392,6 +406,7 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
     collision.only(["method", "file"])
     source = fields.sub("source")
     kind = source.choice("kind", ["procedural", "modelled", "mesh", "file"])
+    shape = _read_shape(fields, kind)
     parts: list[Part] = []
     transform = None
     collision_file = None
@@ -511,6 +526,7 @@ def _read_object(name: str, fields: Fields) -> CatalogObject:
         collision_file=collision_file,
         palette=palette,
         folder=Path(fields.file).parent if kind == "file" else None,
+        shape=shape,
     )
 
 
@@ -556,6 +572,35 @@ def modelled_model(name: str, entry: dict, file: Path) -> Model:
     fields = Fields(entry, file, f"objects.{name}")
     source_record, _ = _read_modelled(name, fields, fields.sub("source"), False, None)
     return generate_model(source_record["generator"], source_record["params"])
+
+
+DEFAULT_SHAPE = {
+    "procedural": "primitive",
+    "modelled": "modelled",
+    "file": "modelled",
+}  # a packaged mesh (`mesh`) must state its kind
+
+
+def _read_shape(fields: Fields, kind: str) -> str:
+    """The entry's shape kind: given, or the default of its source kind; a procedural object is never a scan."""
+    if not fields.has("shape") and kind not in DEFAULT_SHAPE:
+        raise fields.error(
+            "shape",
+            f"is missing for a packaged mesh (source kind '{kind}')",
+            f"Say how its form was made: {', '.join(SHAPE_KINDS)}",
+        )
+    shape = fields.choice("shape", SHAPE_KINDS, DEFAULT_SHAPE.get(kind))
+    if kind == "procedural" and shape == "scanned":
+        raise fields.error(
+            "shape",
+            "is 'scanned' for a procedural object, which a generator makes",
+            "Write modelled (a generated profile of the real object) or primitive",
+        )
+    if kind == "modelled" and shape != "modelled":
+        raise fields.error(
+            "shape", f"is '{shape}' for a modelled object (source kind modelled)", "Write modelled, or leave it out"
+        )
+    return shape
 
 
 GENERATOR_PARAM_LIMITS = {"bend_deg": (0.0, 360.0), "segments": (3, 64), "levels": (1, 20)}

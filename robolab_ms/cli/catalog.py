@@ -62,7 +62,7 @@ def add_catalog_command(commands) -> None:
 
 
 def _add_catalog_add_command(actions) -> None:
-    from robolab_ms.catalog import COLOR_NAMES, OBJECT_CLASSES
+    from robolab_ms.catalog import COLOR_NAMES, OBJECT_CLASSES, SHAPE_KINDS
     from robolab_ms.catalog.add import (
         CLASS_DENSITY,
         DEFAULT_CONTENT,
@@ -131,6 +131,12 @@ def _add_catalog_add_command(actions) -> None:
         default=list(DEFAULT_FRICTION),
         metavar=("STATIC", "DYNAMIC"),
         help=f"friction coefficients (default {DEFAULT_FRICTION[0]:g} {DEFAULT_FRICTION[1]:g})",
+    )
+    add.add_argument(
+        "--shape",
+        choices=list(SHAPE_KINDS),
+        default="modelled",
+        help="how the mesh's form was made: scanned (a 3D scan of a real object), modelled (default) or primitive",
     )
     add.add_argument("--origin", help="where the mesh comes from (web address, author); default: marked TO FILL IN")
     add.add_argument("--license", help="the mesh's licence, e.g. CC-BY-4.0; default: marked TO FILL IN")
@@ -221,6 +227,7 @@ def _cmd_catalog_add(args: argparse.Namespace) -> int:
         allow_open=args.allow_open,
         replace=args.replace,
         sheet=not args.no_sheet,
+        shape=args.shape,
     )
     print(describe(result))
     return 0
