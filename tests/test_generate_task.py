@@ -150,7 +150,10 @@ def test_http_endpoint_with_a_schema_error_then_validation(tmp_path, catalog, ll
     assert len(requests) == 3 and all(r["model"] == "scripted-model" for r in requests)
     system, first_user = requests[0]["messages"][0]["content"], requests[0]["messages"][1]["content"]
     assert "in_container(container" in system and "FIRST condition" in system
-    assert first_user.startswith("Instruction: Put the banana in the bowl") and "- banana: banana_curved" in first_user
+    assert (
+        first_user.startswith("Instruction: Put the banana in the bowl")
+        and "- banana: curved_banana_scan" in first_user
+    )
     feedback = requests[1]["messages"][-1]["content"]
     assert "field 'success[0].predicate': 'in_bowl' is not a known predicate" in feedback
     assert str(tmp_path) not in feedback  # the loader's error without our temporary path

@@ -508,7 +508,8 @@ def test_a_wooden_spoon_beside_oranges_is_grasped_with_its_handle_between_the_pa
 def test_oracle_reaches_past_a_crate_wall_without_catching_its_rim(tmp_path):
     """After dropping the milk carton into the crate, the joint path to the lying juice carton sagged below the
     straight line the oracle checked, an open finger caught the crate's rim and pulled the crate over onto the juice
-    carton (seed 4 failed so); the real path is checked, and the hand goes over high and comes straight down."""
+    carton (seed 4 failed so); the real path is checked, and the hand goes over high and comes straight down. The
+    cartons (HOPE's scans, 19 cm tall) may lie tipped in the crate; the crate itself must stay upright."""
     results = run_evaluation(
         make_policy("oracle"),
         EvalConfig(tasks=("RecycleCarton",), episodes=1, first_seed=4),
@@ -516,4 +517,5 @@ def test_oracle_reaches_past_a_crate_wall_without_catching_its_rim(tmp_path):
         show_progress=False,
     )
     assert results[0].error is None and results[0].success
-    assert not any(event["type"] == "object_tipped_over" for event in results[0].events)
+    tipped = {event["object"] for event in results[0].events if event["type"] == "object_tipped_over"}
+    assert tipped <= {"milk_carton", "orange_juice_carton"}, tipped

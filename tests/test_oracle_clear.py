@@ -2,6 +2,7 @@
 gripper, a mug is held by the side of its wall away from the rack, and a bowl beside the rack goes onto its top."""
 
 import gymnasium as gym
+import numpy as np
 import pytest
 
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
@@ -25,7 +26,8 @@ def test_beside_the_rack_the_hand_is_the_gripper_and_the_mug_is_held_away_from_i
         assert not oracle.motion.collides(home)  # ... the droid's gripper there does not
         mug, rack = centre(base, "mug")[:2], centre(base, "rack_l04")[:2]
         grasp = grasp_pose(base, "mug")
-        assert float((grasp[:2] - mug) @ (rack - mug)) < 0.0  # the wall on the far side from the rack
+        towards_rack = float((grasp[:2] - mug) @ (rack - mug)) / float(np.linalg.norm(rack - mug))
+        assert towards_rack < 0.005  # a wall on the far side from the rack or across it, never the wall facing it
     finally:
         env.close()
 
