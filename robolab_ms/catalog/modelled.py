@@ -801,6 +801,134 @@ def gable_carton(size: list[float], gable: float = 0.03, cap_radius: float = 0.0
     return model
 
 
+def _joined(meshes: Sequence[TriangleMesh]) -> TriangleMesh:
+    """Several meshes as one (their triangles renumbered)."""
+    offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes[:-1]])
+    return TriangleMesh(
+        np.concatenate([mesh.vertices for mesh in meshes]),
+        np.concatenate([mesh.triangles + offset for mesh, offset in zip(meshes, offsets)]),
+        np.concatenate([mesh.normals for mesh in meshes]),
+        np.concatenate([mesh.uvs for mesh in meshes]),
+    )
+
+
+def puzzle_cube(size: float = 0.057, bevel: float = 0.004, grid: int = 3, gap: float = 0.0022) -> Model:
+    """A Rubik's-style puzzle cube of edge `size`: a body with rounded edges (first colour) and `grid` x `grid`
+    square stickers on the flat of each face, one colour per face (colours 2 to 7: +z, -z, +x, -x, +y,
+    -y), standing 0.4 mm proud of the body. Collision: the body's hull at the full size."""
+    proud = 0.0004
+    body, _ = rounded_box((size - 2 * proud,) * 3, bevel, (0.0, 0.0, size / 2))
+    surfaces = [Surface(body, 0)]
+    cell = (size - 2 * bevel) / grid  # the stickers cover the flat of each face, clear of the rounded edges
+    sticker = cell - gap
+    thickness = 2 * proud + 0.0004  # its inner half is buried in the body
+    faces = [((0, 0, 1), 1), ((0, 0, -1), 2), ((1, 0, 0), 3), ((-1, 0, 0), 4), ((0, 1, 0), 5), ((0, -1, 0), 6)]
+    offsets = (np.arange(grid) - (grid - 1) / 2) * cell
+    for normal, tint in faces:
+        axis = int(np.flatnonzero(normal)[0])
+        across = [i for i in range(3) if i != axis]
+        extent = np.full(3, sticker)
+        extent[axis] = thickness
+        tiles = []
+        for a in offsets:
+            for b in offsets:
+                centre = np.array([0.0, 0.0, size / 2])
+                centre[axis] += normal[axis] * (size / 2 - thickness / 2)
+                centre[across[0]] += a
+                centre[across[1]] += b
+                tiles.append(rounded_box(extent, min(0.0025, thickness / 2 * 0.99), centre)[0])
+        surfaces.append(Surface(_joined(tiles), tint, "plastic"))  # each tile is one sticker, plain
+    _, hull = rounded_box((size,) * 3, bevel, (0.0, 0.0, size / 2))
+    return Model(tuple(surfaces), (hull,))
+
+
+def fruit(
+    radius: float,
+    height: float,
+    stem_length: float = 0.0,
+    dimple: float = 0.002,
+    base: float = 0.35,
+    tip: float = 0.0,
+    lying: bool = False,
+) -> Model:
+    """A round or oval fruit: a revolved body of `radius` at its widest and `height` along its axis, resting on a
+    slightly flattened end (`base`: the flat's radius, a fraction of `radius`), with a `dimple` deep at the stem
+    end and a short stem (second colour) `stem_length` out of it; `tip`: a nub that long at each end instead of the
+    dimple (a lime's or lemon's). `lying`: the axis along x, the fruit on its side (a lime, a lemon), centred at the origin in x."""
+    body = height - 2 * tip
+    dimple = 0.0 if tip > 0 else dimple
+    flat = 0.0 if lying else base * radius
+    angles = np.radians(np.linspace(-90.0, 90.0, 37))
+    outline = np.column_stack([radius * np.cos(angles), body / 2 * (1 + np.sin(angles))])
+    lowest = body / 2 * (1 - math.sqrt(1 - min(flat / radius, 0.99) ** 2)) if flat > 0 else 0.0
+    top_r = 0.18 * radius if dimple > 0 else 0.0
+    keep = (outline[:, 1] > lowest + 1e-9) & ((outline[:, 0] > top_r) | (angles < 0))
+    outline = outline[keep & (outline[:, 0] > 1e-9)]
+    outline = np.concatenate([[[0.0, lowest]], [[flat, lowest]] if flat > 0 else np.empty((0, 2)), outline])
+    if dimple > 0:
+        rim_r, rim_z = outline[-1]
+        dip = [[r, rim_z - dimple * (1 + math.cos(math.pi * r / rim_r)) / 2] for r in np.linspace(rim_r, 0.0, 7)[1:]]
+        outline = np.concatenate([outline, dip])
+    else:
+        outline = np.concatenate([outline, [[0.0, body]]])
+    outline[:, 1] = (outline[:, 1] - lowest) * body / (body - lowest)  # flattened, and still `body` high
+    profile = _tipped(outline, radius, tip) if tip > 0 else outline
+    surfaces = [Surface(mesh, 0) for mesh, _ in revolve(profile)]
+    silhouette = profile[profile[:, 0] > 1e-9]
+    pieces = list(solid_pieces(silhouette, sectors=12 if lying else 24))  # a lying fruit rests on a side
+    if stem_length > 0:
+        stem_radius = max(0.08 * radius, 0.0015)
+        low = float(profile[-1, 1]) - 0.001
+        stem = [
+            [0.0, low],
+            [stem_radius, low],
+            [stem_radius * 0.8, low + dimple + stem_length],
+            [0.0, low + dimple + stem_length],
+        ]
+        surfaces += [Surface(mesh, 1, shade=0.8) for mesh, _ in revolve(stem, segments=12)]
+        pieces.append(
+            np.concatenate([_ring(stem_radius, low, 8), _ring(stem_radius * 0.8, low + dimple + stem_length, 8)])
+        )
+    model = Model(tuple(surfaces), tuple(pieces))
+    if lying:
+        turn = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+        top = float(model.bounds[1, 2])
+        centre = (-top / 2, 0.0, radius)
+        surfaces = tuple(replace(s, mesh=_along_x(s.mesh, centre)) for s in model.surfaces)
+        model = Model(surfaces, tuple(piece @ turn.T + centre for piece in model.pieces))
+    return _based(model)
+
+
+def _tipped(profile: np.ndarray, radius: float, tip: float) -> np.ndarray:
+    """A fruit's profile with a rounded nub `tip` long added at both ends of its axis."""
+    nub = 0.12 * radius
+    bottom = [[0.0, 0.0], [nub * 0.6, 0.2 * tip], [nub, tip * 0.8]]
+    top_z = float(profile[-1, 1]) + 2 * tip
+    top = [[nub, top_z - 0.8 * tip], [nub * 0.6, top_z - 0.2 * tip], [0.0, top_z]]
+    middle = profile[(profile[:, 0] > nub * 1.5)] + [0.0, tip]
+    return np.concatenate([bottom, middle, top])
+
+
+def bagel(radius: float, height: float, hole_radius: float, flatness: float = 0.3) -> Model:
+    """A bagel: a ring of outer `radius` and `height` round a hole of `hole_radius`, its section a rounded
+    oblong (`flatness` 0: round, 1: nearly square), lying flat."""
+    centre = (radius + hole_radius) / 2
+    half_width, half_height = (radius - hole_radius) / 2, height / 2
+    exponent = 2.0 + 4.0 * flatness
+    angles = np.radians(np.linspace(-90.0, 270.0, 49))
+    cos, sin = np.cos(angles), np.sin(angles)
+    section = np.column_stack(
+        [
+            centre + half_width * np.sign(cos) * np.abs(cos) ** (2 / exponent),
+            half_height + half_height * np.sign(sin) * np.abs(sin) ** (2 / exponent),
+        ]
+    )
+    surfaces = tuple(Surface(mesh, 0) for mesh, _ in revolve(section, crease_deg=60.0))
+    outer, inner = section[:25], section[48:23:-1]  # bottom to top, the outside and the hole's side in pairs
+    pieces = wall_pieces(outer, inner, sectors=16, tolerance=0.002)
+    return _based(Model(surfaces, tuple(pieces)))
+
+
 def _rotation_to(direction: np.ndarray) -> np.ndarray:
     """The rotation turning +z to `direction` (a unit vector) about the axis square to both."""
     axis = np.cross([0.0, 0.0, 1.0], direction)
@@ -823,9 +951,13 @@ GENERATORS: dict[str, Callable[..., Model]] = {
     "drill": drill,
     "bevelled_box": bevelled_box,
     "gable_carton": gable_carton,
+    "puzzle_cube": puzzle_cube,
+    "fruit": fruit,
+    "bagel": bagel,
 }
 PARAM_LIMITS = {"squareness": (0.0, 1.0), "taper": (0.0, 0.5), "shoulder": (0.0, 1.0), "ridges": (0.0, 0.2),
-                "bend_deg": (0.0, 270.0), "flare_deg": (20.0, 90.0)}  # fmt: skip
+                "bend_deg": (0.0, 270.0), "flare_deg": (20.0, 90.0),
+                "base": (0.0, 0.9), "flatness": (0.0, 1.0)}  # fmt: skip
 
 
 def generate(generator: str, params: dict[str, Any]) -> Model:
