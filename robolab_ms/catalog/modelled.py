@@ -850,11 +850,13 @@ def fruit(
     base: float = 0.35,
     tip: float = 0.0,
     lying: bool = False,
+    stem_radius: float = 0.0,
 ) -> Model:
     """A round or oval fruit: a revolved body of `radius` at its widest and `height` along its axis, resting on a
     slightly flattened end (`base`: the flat's radius, a fraction of `radius`), with a `dimple` deep at the stem
     end and a short stem (second colour) `stem_length` out of it; `tip`: a nub that long at each end instead of the
-    dimple (a lime's or lemon's). `lying`: the axis along x, the fruit on its side (a lime, a lemon), centred at the origin in x."""
+    dimple (a lime's or lemon's); `stem_radius`: the stem's radius at its foot (default 8 % of `radius`: a
+    pomegranate's crown, an onion's neck are wider). `lying`: the axis along x, the fruit on its side (a lime, a lemon), centred at the origin in x."""
     body = height - 2 * tip
     dimple = 0.0 if tip > 0 else dimple
     flat = 0.0 if lying else base * radius
@@ -877,7 +879,7 @@ def fruit(
     silhouette = profile[profile[:, 0] > 1e-9]
     pieces = list(solid_pieces(silhouette, sectors=12 if lying else 24))  # a lying fruit rests on a side
     if stem_length > 0:
-        stem_radius = max(0.08 * radius, 0.0015)
+        stem_radius = stem_radius or max(0.08 * radius, 0.0015)
         low = float(profile[-1, 1]) - 0.001
         stem = [
             [0.0, low],
