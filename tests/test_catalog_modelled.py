@@ -31,6 +31,9 @@ REQUESTS = {
     "drill": ({"height": 0.19, "length": 0.205, "width": 0.075}, (0.205, 0.075, 0.19)),
     "bevelled_box": ({"size": [0.06, 0.16, 0.21]}, (0.06, 0.16, 0.21)),
     "gable_carton": ({"size": [0.07, 0.07, 0.212], "cap_radius": 0.012}, (0.07, 0.07, 0.212)),
+    "puzzle_cube": ({"size": 0.057}, (0.057, 0.057, 0.057)),
+    "fruit": ({"radius": 0.037, "height": 0.074, "stem_length": 0.0045}, (0.074, 0.074, 0.0761)),
+    "bagel": ({"radius": 0.0401, "height": 0.0265, "hole_radius": 0.0136}, (0.0802, 0.0802, 0.0265)),
 }
 
 
@@ -56,6 +59,22 @@ def test_generator_makes_closed_outward_surfaces_of_the_requested_size(generator
         shading = mesh.normals[mesh.triangles].mean(axis=1)
         assert np.mean(np.einsum("ij,ij->i", faces, shading) > 0) > 0.98  # the shading normals face outwards
     pieces = np.concatenate(model.pieces)  # the collision covers the same extent as the surfaces
+    assert np.allclose(pieces.max(axis=0) - pieces.min(axis=0), high - low, atol=0.004)
+
+
+def test_flat_bottle_and_lying_fruit_keep_their_size_and_round_parts():
+    flat = generate(
+        "bottle", {"radius": 0.0475, "depth": 0.062, "height": 0.19, "neck_radius": 0.011, "neck_height": 0.02}
+    )
+    low, high = flat.bounds
+    assert np.allclose(high - low, (0.095, 0.062, 0.19), atol=1e-4)
+    assert flat.solid().is_watertight
+    cap = np.concatenate([s.mesh.vertices for s in flat.surfaces if s.tint == 1])  # the cap is not squeezed
+    assert np.ptp(cap[:, 0]) == pytest.approx(np.ptp(cap[:, 1]), abs=1e-4)
+    lime = generate("fruit", {"radius": 0.03, "height": 0.075, "tip": 0.003, "lying": True})
+    low, high = lime.bounds
+    assert np.allclose(high - low, (0.075, 0.06, 0.06), atol=5e-4) and abs(low[2]) < 1e-9
+    pieces = np.concatenate(lime.pieces)
     assert np.allclose(pieces.max(axis=0) - pieces.min(axis=0), high - low, atol=0.004)
 
 

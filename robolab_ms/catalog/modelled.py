@@ -587,10 +587,12 @@ def bottle(
     shoulder: float = 0.25,
     squareness: float = 0.0,
     cap_radius: float = 0.0,
+    depth: float = 0.0,
 ) -> Model:
     """A bottle: a body of `radius` (a rounded square with `squareness`, e.g. a mustard bottle, rounding off
     towards the neck) with a label in the first colour, a `shoulder` (a fraction of the body's height) curving in to the neck, and a cap of
-    `cap_height` (and `cap_radius`, default a little wider than the neck) in the second colour."""
+    `cap_height` (and `cap_radius`, default a little wider than the neck) in the second colour. `depth`: the
+    body's full extent along y where it is flatter than wide (default 2 `radius`); the neck and cap stay round."""
     cap_r = cap_radius or neck_radius * 1.15
     body = height - neck_height - cap_height
     if body <= 0 or neck_radius >= radius or cap_r > radius:
@@ -641,7 +643,30 @@ def bottle(
         ]
     )
     pieces = solid_pieces(silhouette, squareness=fading(silhouette))
+    if depth and depth < 2 * radius:
+        flatten = _flattener(cap_r, radius, depth / 2)
+        surfaces = [replace(s, mesh=flatten(s.mesh)) for s in surfaces]
+        pieces = [flatten.points(piece) for piece in pieces]
     return Model(tuple(surfaces), tuple(pieces))
+
+
+class _flattener:
+    """Squeezes a bottle along y: |y| beyond the neck's `keep` is scaled so that `radius` becomes `half_depth`; the
+    neck and cap (within `keep` of the axis) stay round."""
+
+    def __init__(self, keep: float, radius: float, half_depth: float) -> None:
+        self.keep, self.factor = keep, (half_depth - keep) / (radius - keep)
+
+    def points(self, points: np.ndarray) -> np.ndarray:
+        y = points[:, 1]
+        beyond = np.abs(y) > self.keep
+        squeezed = np.where(beyond, np.sign(y) * (self.keep + (np.abs(y) - self.keep) * self.factor), y)
+        return np.column_stack([points[:, 0], squeezed, points[:, 2]])
+
+    def __call__(self, mesh: TriangleMesh) -> TriangleMesh:
+        slope = np.where(np.abs(mesh.vertices[:, 1]) > self.keep, self.factor, 1.0)
+        normals = mesh.normals / np.column_stack([np.ones(len(slope)), slope, np.ones(len(slope))])
+        return replace(mesh, vertices=self.points(mesh.vertices), normals=_normalised(normals))
 
 
 def _split_label(mesh: TriangleMesh, low: float, high: float) -> list[Surface]:
