@@ -876,12 +876,15 @@ def fruit(
     tip: float = 0.0,
     lying: bool = False,
     stem_radius: float = 0.0,
+    lobes: int = 0,
+    lobe_depth: float = 0.0,
 ) -> Model:
     """A round or oval fruit: a revolved body of `radius` at its widest and `height` along its axis, resting on a
     slightly flattened end (`base`: the flat's radius, a fraction of `radius`), with a `dimple` deep at the stem
     end and a short stem (second colour) `stem_length` out of it; `tip`: a nub that long at each end instead of the
     dimple (a lime's or lemon's); `stem_radius`: the stem's radius at its foot (default 8 % of `radius`: a
-    pomegranate's crown, an onion's neck are wider). `lying`: the axis along x, the fruit on its side (a lime, a lemon), centred at the origin in x."""
+    pomegranate's crown, an onion's neck are wider); `lobes` ribs running from end to end, the grooves between
+    them `lobe_depth` deep (a fraction of the radius; a pumpkin's). `lying`: the axis along x, the fruit on its side (a lime, a lemon), centred at the origin in x."""
     body = height - 2 * tip
     dimple = 0.0 if tip > 0 else dimple
     flat = 0.0 if lying else base * radius
@@ -900,7 +903,10 @@ def fruit(
         outline = np.concatenate([outline, [[0.0, body]]])
     outline[:, 1] = (outline[:, 1] - lowest) * body / (body - lowest)  # flattened, and still `body` high
     profile = _tipped(outline, radius, tip) if tip > 0 else outline
-    surfaces = [Surface(mesh, 0) for mesh, _ in revolve(profile)]
+    surfaces = [
+        Surface(_lobed(mesh, lobes, lobe_depth), 0)
+        for mesh, _ in revolve(profile, segments=72 if lobes else DEFAULT_SEGMENTS)
+    ]
     silhouette = profile[profile[:, 0] > 1e-9]
     pieces = list(solid_pieces(silhouette, sectors=12 if lying else 24))  # a lying fruit rests on a side
     if stem_length > 0:
@@ -924,6 +930,25 @@ def fruit(
         surfaces = tuple(replace(s, mesh=_along_x(s.mesh, centre)) for s in model.surfaces)
         model = Model(surfaces, tuple(piece @ turn.T + centre for piece in model.pieces))
     return _based(model)
+
+
+def _lobed(mesh: TriangleMesh, lobes: int, depth: float) -> TriangleMesh:
+    """A revolved mesh with `lobes` grooves `depth` deep (a fraction of the radius) running along the axis; the
+    ribs keep the full radius."""
+    if lobes <= 0 or depth <= 0:
+        return mesh
+    angle = np.arctan2(mesh.vertices[:, 1], mesh.vertices[:, 0])
+    scale = 1.0 - depth * (0.5 - 0.5 * np.cos(lobes * angle)) ** 2
+    vertices = mesh.vertices * np.column_stack([scale, scale, np.ones(len(scale))])
+    _, at = np.unique(np.round(vertices, 9), axis=0, return_inverse=True)  # smooth across seams
+    at = at.reshape(-1)
+    a, b, c = (vertices[mesh.triangles[:, i]] for i in range(3))
+    facing = np.cross(b - a, c - a)  # area-weighted
+    summed = np.zeros((at.max() + 1, 3))
+    for corner in range(3):
+        np.add.at(summed, at[mesh.triangles[:, corner]], facing)
+    normals = _normalised(summed[at])
+    return replace(mesh, vertices=vertices, normals=normals)
 
 
 def _tipped(profile: np.ndarray, radius: float, tip: float) -> np.ndarray:
@@ -984,7 +1009,7 @@ GENERATORS: dict[str, Callable[..., Model]] = {
 }
 PARAM_LIMITS = {"squareness": (0.0, 1.0), "taper": (0.0, 0.5), "shoulder": (0.0, 1.0), "ridges": (0.0, 0.2),
                 "bend_deg": (0.0, 270.0), "flare_deg": (20.0, 90.0),
-                "base": (0.0, 0.9), "flatness": (0.0, 1.0)}  # fmt: skip
+                "base": (0.0, 0.9), "flatness": (0.0, 1.0), "lobes": (0, 32), "lobe_depth": (0.0, 0.3), "grid": (1, 9)}  # fmt: skip
 
 
 def generate(generator: str, params: dict[str, Any]) -> Model:
