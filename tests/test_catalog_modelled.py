@@ -31,6 +31,9 @@ REQUESTS = {
     "drill": ({"height": 0.19, "length": 0.205, "width": 0.075}, (0.205, 0.075, 0.19)),
     "bevelled_box": ({"size": [0.06, 0.16, 0.21]}, (0.06, 0.16, 0.21)),
     "gable_carton": ({"size": [0.07, 0.07, 0.212], "cap_radius": 0.012}, (0.07, 0.07, 0.212)),
+    "puzzle_cube": ({"size": 0.057}, (0.057, 0.057, 0.057)),
+    "fruit": ({"radius": 0.037, "height": 0.074, "stem_length": 0.0045}, (0.074, 0.074, 0.0761)),
+    "bagel": ({"radius": 0.0401, "height": 0.0265, "hole_radius": 0.0136}, (0.0802, 0.0802, 0.0265)),
 }
 
 
@@ -57,6 +60,33 @@ def test_generator_makes_closed_outward_surfaces_of_the_requested_size(generator
         assert np.mean(np.einsum("ij,ij->i", faces, shading) > 0) > 0.98  # the shading normals face outwards
     pieces = np.concatenate(model.pieces)  # the collision covers the same extent as the surfaces
     assert np.allclose(pieces.max(axis=0) - pieces.min(axis=0), high - low, atol=0.004)
+
+
+def test_flat_bottle_and_lying_or_lobed_fruit_keep_their_size_and_round_parts():
+    flat = generate(
+        "bottle", {"radius": 0.0475, "depth": 0.062, "height": 0.19, "neck_radius": 0.011, "neck_height": 0.02}
+    )
+    low, high = flat.bounds
+    assert np.allclose(high - low, (0.095, 0.062, 0.19), atol=1e-4)
+    assert flat.solid().is_watertight
+    cap = np.concatenate([s.mesh.vertices for s in flat.surfaces if s.tint == 1])  # the cap is not squeezed
+    assert np.ptp(cap[:, 0]) == pytest.approx(np.ptp(cap[:, 1]), abs=1e-4)
+    lime = generate("fruit", {"radius": 0.03, "height": 0.075, "tip": 0.003, "lying": True})
+    low, high = lime.bounds
+    assert np.allclose(high - low, (0.075, 0.06, 0.06), atol=5e-4) and abs(low[2]) < 1e-9
+    pieces = np.concatenate(lime.pieces)
+    assert np.allclose(pieces.max(axis=0) - pieces.min(axis=0), high - low, atol=0.004)
+    pumpkin = generate(
+        "fruit", {"radius": 0.044, "height": 0.087, "stem_length": 0.012, "lobes": 12, "lobe_depth": 0.08}
+    )
+    low, high = pumpkin.bounds
+    assert np.allclose((high - low)[:2], (0.088, 0.088), atol=2e-4)  # the ribs keep the full radius
+    body = pumpkin.surfaces[0].mesh
+    equator = body.vertices[np.abs(body.vertices[:, 2] - body.vertices[:, 2].max() / 2) < 0.004]
+    radial = np.hypot(equator[:, 0], equator[:, 1])
+    assert np.ptp(radial) == pytest.approx(0.08 * 0.044, rel=0.2)  # grooves 8 % of the radius deep
+    faces = trimesh.Trimesh(body.vertices, body.triangles, process=False).face_normals
+    assert np.mean(np.einsum("ij,ij->i", faces, body.normals[body.triangles].mean(axis=1)) > 0) > 0.98
 
 
 def _inside_a_piece(pieces, point) -> bool:

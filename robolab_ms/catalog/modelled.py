@@ -587,10 +587,12 @@ def bottle(
     shoulder: float = 0.25,
     squareness: float = 0.0,
     cap_radius: float = 0.0,
+    depth: float = 0.0,
 ) -> Model:
     """A bottle: a body of `radius` (a rounded square with `squareness`, e.g. a mustard bottle, rounding off
     towards the neck) with a label in the first colour, a `shoulder` (a fraction of the body's height) curving in to the neck, and a cap of
-    `cap_height` (and `cap_radius`, default a little wider than the neck) in the second colour."""
+    `cap_height` (and `cap_radius`, default a little wider than the neck) in the second colour. `depth`: the
+    body's full extent along y where it is flatter than wide (default 2 `radius`); the neck and cap stay round."""
     cap_r = cap_radius or neck_radius * 1.15
     body = height - neck_height - cap_height
     if body <= 0 or neck_radius >= radius or cap_r > radius:
@@ -641,7 +643,30 @@ def bottle(
         ]
     )
     pieces = solid_pieces(silhouette, squareness=fading(silhouette))
+    if depth and depth < 2 * radius:
+        flatten = _flattener(cap_r, radius, depth / 2)
+        surfaces = [replace(s, mesh=flatten(s.mesh)) for s in surfaces]
+        pieces = [flatten.points(piece) for piece in pieces]
     return Model(tuple(surfaces), tuple(pieces))
+
+
+class _flattener:
+    """Squeezes a bottle along y: |y| beyond the neck's `keep` is scaled so that `radius` becomes `half_depth`; the
+    neck and cap (within `keep` of the axis) stay round."""
+
+    def __init__(self, keep: float, radius: float, half_depth: float) -> None:
+        self.keep, self.factor = keep, (half_depth - keep) / (radius - keep)
+
+    def points(self, points: np.ndarray) -> np.ndarray:
+        y = points[:, 1]
+        beyond = np.abs(y) > self.keep
+        squeezed = np.where(beyond, np.sign(y) * (self.keep + (np.abs(y) - self.keep) * self.factor), y)
+        return np.column_stack([points[:, 0], squeezed, points[:, 2]])
+
+    def __call__(self, mesh: TriangleMesh) -> TriangleMesh:
+        slope = np.where(np.abs(mesh.vertices[:, 1]) > self.keep, self.factor, 1.0)
+        normals = mesh.normals / np.column_stack([np.ones(len(slope)), slope, np.ones(len(slope))])
+        return replace(mesh, vertices=self.points(mesh.vertices), normals=_normalised(normals))
 
 
 def _split_label(mesh: TriangleMesh, low: float, high: float) -> list[Surface]:
@@ -801,6 +826,161 @@ def gable_carton(size: list[float], gable: float = 0.03, cap_radius: float = 0.0
     return model
 
 
+def _joined(meshes: Sequence[TriangleMesh]) -> TriangleMesh:
+    """Several meshes as one (their triangles renumbered)."""
+    offsets = np.cumsum([0] + [len(mesh.vertices) for mesh in meshes[:-1]])
+    return TriangleMesh(
+        np.concatenate([mesh.vertices for mesh in meshes]),
+        np.concatenate([mesh.triangles + offset for mesh, offset in zip(meshes, offsets)]),
+        np.concatenate([mesh.normals for mesh in meshes]),
+        np.concatenate([mesh.uvs for mesh in meshes]),
+    )
+
+
+def puzzle_cube(size: float = 0.057, bevel: float = 0.004, grid: int = 3, gap: float = 0.0022) -> Model:
+    """A Rubik's-style puzzle cube of edge `size`: a body with rounded edges (first colour) and `grid` x `grid`
+    square stickers on the flat of each face, one colour per face (colours 2 to 7: +z, -z, +x, -x, +y,
+    -y), standing 0.4 mm proud of the body. Collision: the body's hull at the full size."""
+    proud = 0.0004
+    body, _ = rounded_box((size - 2 * proud,) * 3, bevel, (0.0, 0.0, size / 2))
+    surfaces = [Surface(body, 0)]
+    cell = (size - 2 * bevel) / grid  # the stickers cover the flat of each face, clear of the rounded edges
+    sticker = cell - gap
+    thickness = 2 * proud + 0.0004  # its inner half is buried in the body
+    faces = [((0, 0, 1), 1), ((0, 0, -1), 2), ((1, 0, 0), 3), ((-1, 0, 0), 4), ((0, 1, 0), 5), ((0, -1, 0), 6)]
+    offsets = (np.arange(grid) - (grid - 1) / 2) * cell
+    for normal, tint in faces:
+        axis = int(np.flatnonzero(normal)[0])
+        across = [i for i in range(3) if i != axis]
+        extent = np.full(3, sticker)
+        extent[axis] = thickness
+        tiles = []
+        for a in offsets:
+            for b in offsets:
+                centre = np.array([0.0, 0.0, size / 2])
+                centre[axis] += normal[axis] * (size / 2 - thickness / 2)
+                centre[across[0]] += a
+                centre[across[1]] += b
+                tiles.append(rounded_box(extent, min(0.0025, thickness / 2 * 0.99), centre)[0])
+        surfaces.append(Surface(_joined(tiles), tint, "plastic"))  # each tile is one sticker, plain
+    _, hull = rounded_box((size,) * 3, bevel, (0.0, 0.0, size / 2))
+    return Model(tuple(surfaces), (hull,))
+
+
+def fruit(
+    radius: float,
+    height: float,
+    stem_length: float = 0.0,
+    dimple: float = 0.002,
+    base: float = 0.35,
+    tip: float = 0.0,
+    lying: bool = False,
+    stem_radius: float = 0.0,
+    lobes: int = 0,
+    lobe_depth: float = 0.0,
+) -> Model:
+    """A round or oval fruit: a revolved body of `radius` at its widest and `height` along its axis, resting on a
+    slightly flattened end (`base`: the flat's radius, a fraction of `radius`), with a `dimple` deep at the stem
+    end and a short stem (second colour) `stem_length` out of it; `tip`: a nub that long at each end instead of the
+    dimple (a lime's or lemon's); `stem_radius`: the stem's radius at its foot (default 8 % of `radius`: a
+    pomegranate's crown, an onion's neck are wider); `lobes` ribs running from end to end, the grooves between
+    them `lobe_depth` deep (a fraction of the radius; a pumpkin's). `lying`: the axis along x, the fruit on its side (a lime, a lemon), centred at the origin in x."""
+    body = height - 2 * tip
+    dimple = 0.0 if tip > 0 else dimple
+    flat = 0.0 if lying else base * radius
+    angles = np.radians(np.linspace(-90.0, 90.0, 37))
+    outline = np.column_stack([radius * np.cos(angles), body / 2 * (1 + np.sin(angles))])
+    lowest = body / 2 * (1 - math.sqrt(1 - min(flat / radius, 0.99) ** 2)) if flat > 0 else 0.0
+    top_r = 0.18 * radius if dimple > 0 else 0.0
+    keep = (outline[:, 1] > lowest + 1e-9) & ((outline[:, 0] > top_r) | (angles < 0))
+    outline = outline[keep & (outline[:, 0] > 1e-9)]
+    outline = np.concatenate([[[0.0, lowest]], [[flat, lowest]] if flat > 0 else np.empty((0, 2)), outline])
+    if dimple > 0:
+        rim_r, rim_z = outline[-1]
+        dip = [[r, rim_z - dimple * (1 + math.cos(math.pi * r / rim_r)) / 2] for r in np.linspace(rim_r, 0.0, 7)[1:]]
+        outline = np.concatenate([outline, dip])
+    else:
+        outline = np.concatenate([outline, [[0.0, body]]])
+    outline[:, 1] = (outline[:, 1] - lowest) * body / (body - lowest)  # flattened, and still `body` high
+    profile = _tipped(outline, radius, tip) if tip > 0 else outline
+    surfaces = [
+        Surface(_lobed(mesh, lobes, lobe_depth), 0)
+        for mesh, _ in revolve(profile, segments=72 if lobes else DEFAULT_SEGMENTS)
+    ]
+    silhouette = profile[profile[:, 0] > 1e-9]
+    pieces = list(solid_pieces(silhouette, sectors=12 if lying else 24))  # a lying fruit rests on a side
+    if stem_length > 0:
+        stem_radius = stem_radius or max(0.08 * radius, 0.0015)
+        low = float(profile[-1, 1]) - 0.001
+        stem = [
+            [0.0, low],
+            [stem_radius, low],
+            [stem_radius * 0.8, low + dimple + stem_length],
+            [0.0, low + dimple + stem_length],
+        ]
+        surfaces += [Surface(mesh, 1, shade=0.8) for mesh, _ in revolve(stem, segments=12)]
+        pieces.append(
+            np.concatenate([_ring(stem_radius, low, 8), _ring(stem_radius * 0.8, low + dimple + stem_length, 8)])
+        )
+    model = Model(tuple(surfaces), tuple(pieces))
+    if lying:
+        turn = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+        top = float(model.bounds[1, 2])
+        centre = (-top / 2, 0.0, radius)
+        surfaces = tuple(replace(s, mesh=_along_x(s.mesh, centre)) for s in model.surfaces)
+        model = Model(surfaces, tuple(piece @ turn.T + centre for piece in model.pieces))
+    return _based(model)
+
+
+def _lobed(mesh: TriangleMesh, lobes: int, depth: float) -> TriangleMesh:
+    """A revolved mesh with `lobes` grooves `depth` deep (a fraction of the radius) running along the axis; the
+    ribs keep the full radius."""
+    if lobes <= 0 or depth <= 0:
+        return mesh
+    angle = np.arctan2(mesh.vertices[:, 1], mesh.vertices[:, 0])
+    scale = 1.0 - depth * (0.5 - 0.5 * np.cos(lobes * angle)) ** 2
+    vertices = mesh.vertices * np.column_stack([scale, scale, np.ones(len(scale))])
+    _, at = np.unique(np.round(vertices, 9), axis=0, return_inverse=True)  # smooth across seams
+    at = at.reshape(-1)
+    a, b, c = (vertices[mesh.triangles[:, i]] for i in range(3))
+    facing = np.cross(b - a, c - a)  # area-weighted
+    summed = np.zeros((at.max() + 1, 3))
+    for corner in range(3):
+        np.add.at(summed, at[mesh.triangles[:, corner]], facing)
+    normals = _normalised(summed[at])
+    return replace(mesh, vertices=vertices, normals=normals)
+
+
+def _tipped(profile: np.ndarray, radius: float, tip: float) -> np.ndarray:
+    """A fruit's profile with a rounded nub `tip` long added at both ends of its axis."""
+    nub = 0.12 * radius
+    bottom = [[0.0, 0.0], [nub * 0.6, 0.2 * tip], [nub, tip * 0.8]]
+    top_z = float(profile[-1, 1]) + 2 * tip
+    top = [[nub, top_z - 0.8 * tip], [nub * 0.6, top_z - 0.2 * tip], [0.0, top_z]]
+    middle = profile[(profile[:, 0] > nub * 1.5)] + [0.0, tip]
+    return np.concatenate([bottom, middle, top])
+
+
+def bagel(radius: float, height: float, hole_radius: float, flatness: float = 0.3) -> Model:
+    """A bagel: a ring of outer `radius` and `height` round a hole of `hole_radius`, its section a rounded
+    oblong (`flatness` 0: round, 1: nearly square), lying flat."""
+    centre = (radius + hole_radius) / 2
+    half_width, half_height = (radius - hole_radius) / 2, height / 2
+    exponent = 2.0 + 4.0 * flatness
+    angles = np.radians(np.linspace(-90.0, 270.0, 49))
+    cos, sin = np.cos(angles), np.sin(angles)
+    section = np.column_stack(
+        [
+            centre + half_width * np.sign(cos) * np.abs(cos) ** (2 / exponent),
+            half_height + half_height * np.sign(sin) * np.abs(sin) ** (2 / exponent),
+        ]
+    )
+    surfaces = tuple(Surface(mesh, 0) for mesh, _ in revolve(section, crease_deg=60.0))
+    outer, inner = section[:25], section[48:23:-1]  # bottom to top, the outside and the hole's side in pairs
+    pieces = wall_pieces(outer, inner, sectors=16, tolerance=0.002)
+    return _based(Model(surfaces, tuple(pieces)))
+
+
 def _rotation_to(direction: np.ndarray) -> np.ndarray:
     """The rotation turning +z to `direction` (a unit vector) about the axis square to both."""
     axis = np.cross([0.0, 0.0, 1.0], direction)
@@ -823,9 +1003,13 @@ GENERATORS: dict[str, Callable[..., Model]] = {
     "drill": drill,
     "bevelled_box": bevelled_box,
     "gable_carton": gable_carton,
+    "puzzle_cube": puzzle_cube,
+    "fruit": fruit,
+    "bagel": bagel,
 }
 PARAM_LIMITS = {"squareness": (0.0, 1.0), "taper": (0.0, 0.5), "shoulder": (0.0, 1.0), "ridges": (0.0, 0.2),
-                "bend_deg": (0.0, 270.0), "flare_deg": (20.0, 90.0)}  # fmt: skip
+                "bend_deg": (0.0, 270.0), "flare_deg": (20.0, 90.0),
+                "base": (0.0, 0.9), "flatness": (0.0, 1.0), "lobes": (0, 32), "lobe_depth": (0.0, 0.3), "grid": (1, 9)}  # fmt: skip
 
 
 def generate(generator: str, params: dict[str, Any]) -> Model:
