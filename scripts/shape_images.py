@@ -1,4 +1,4 @@
-"""Render the before / after pictures of the modelled task targets (docs/fidelity.md, "Modelled objects"): each
+"""Render the before / after pictures of task targets with a real shape (docs/fidelity.md, "Modelled objects"): each
 task's scene at seed 0 through DROID's external-left and wrist cameras at 320x180 (a policy's resolution), and a
 contact sheet that sets the two looks side by side.
 
@@ -19,15 +19,17 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-TASKS = {  # a task whose scene holds converted objects, and which ones
-    "BananaInBowl": "banana, red bowl",
-    "MarkerInMug": "blue mug (left, behind the keyboard)",
-    "RedDishesInBin": "red mug, red bowl, banana",
-    "FoodPackingByColor": "coffee, soup cans; cracker, sugar boxes",
-    "FoodPacking2Boxes": "cracker, sugar boxes; soup, tuna cans",
-    "RecycleCarton": "milk, juice cartons; white mug",
+TASKS = {  # a task whose scene holds objects with a real shape, and which ones
+    "BananaInBowl": "banana (envpool model), red bowl",
+    "MarkerInMug": "blue mug (LIBERO model; left, behind the keyboard)",
+    "RedDishesInBin": "red mug (LIBERO model), red bowl, banana",
+    "FoodPackingByColor": "coffee can, soup can (HOPE scan); cracker, sugar, pudding boxes; flat mustard bottle",
+    "FoodPacking2Boxes": "cracker, sugar boxes; soup can (HOPE scan), tuna can",
+    "RecycleCarton": "milk, juice cartons (HOPE scans); white mug (envpool model)",
     "MustardAboveRaisin": "mustard bottle, raisin box",
     "PlasticBottlesInSquarePail": "small white packer bottle",
+    "DishesInBin": "white mugs (LIBERO model), bananas, red bowl, Rubik's cubes",
+    "FruitsOnPlate": "lemons, limes, oranges, pomegranate, red onion, white bowl",
 }
 CAMERAS = ("external_left", "wrist")
 ROOT = Path(__file__).resolve().parents[1]
