@@ -291,7 +291,7 @@ def scene_state(env: RoboLabEnv) -> bytes:
         *px.get_articulation_link_components(),
         *px.get_rigid_static_components(),
     ):
-        pose = component.get_pose()
+        pose = component.get_entity_pose()
         poses.append(np.concatenate([pose.p, pose.q]))
     return np.asarray(poses, dtype=np.float64).tobytes()
 
