@@ -299,11 +299,13 @@ def scene_state(env: RoboLabEnv) -> bytes:
 class RayMaps:
     """Ray-cast grids of the scene last asked about, kept for as long as nothing in it moves: each map is looked
     up by what it was cast for and by `scene_state` (the poses of every body), so a map is cast again as soon as
-    any body has moved. A few scene states are kept at once (the planner may move the robot and back)."""
+    any body has moved. A few scene states are kept at once (the planner may move the robot and back). With `keep`
+    False every map is cast anew (the baseline of benchmarks/validation_cost.py)."""
 
     STATES = 4  # scene states whose maps are kept
 
     def __init__(self) -> None:
+        self.keep = True
         self.scene: weakref.ref | None = None
         self.maps: OrderedDict[bytes, dict[tuple, object]] = OrderedDict()
 
@@ -336,6 +338,8 @@ def surface_grid(
     names of the objects hit (None: the table or nothing). Cast once while nothing in the scene moves (`RAY_MAPS`)."""
     middle = np.asarray(middle)
     key = ("surface", name, middle.dtype.str, middle.tobytes(), type(radius), radius, type(cell), cell)
+    if not RAY_MAPS.keep:
+        return cast_surface_grid(env, name, middle, radius, cell)
     maps = RAY_MAPS.of(env)
     if key not in maps:
         maps[key] = cast_surface_grid(env, name, middle, radius, cell)
