@@ -359,7 +359,7 @@ def cast_surface_grid(
     down = np.array([0.0, 0.0, -1.0], dtype=np.float32)
     start = np.zeros(3, dtype=np.float32)
     raycast = env.scene.px.raycast
-    for index, (x, y) in enumerate(cells):
+    for index, (x, y) in enumerate(cells.tolist()):
         z = OBSTACLE_CEILING
         start[0], start[1] = x, y
         for _ in range(RAY_PASSES):  # through the robot and the object itself, down to the first other object
