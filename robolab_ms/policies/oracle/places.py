@@ -61,6 +61,7 @@ HEAD_FIRST_MARGIN = 0.012  # m kept between a heavy end and the pot's wall (or w
 HEAD_FIRST_TURNS = 24  # directions of the handle tried around the pot
 HEAD_FIRST_CELL = 0.01  # m between the rays that map the pot and its surroundings
 HEAD_FIRST_SAMPLES = 400  # points of the held tool at most that decide what lies under it
+SAMPLE_BATCH = 64  # points (or cells) compared with a whole map at once
 SUPPORT_INSET = 0.03  # m: every point this near an object's middle lies over the flat top (it rests, not tips)
 SUPPORT_SHARE = 0.8  # the share of the disc of SUPPORT_INSET that must be mapped flat cells
 SHARE_MARGIN = 0.025  # m kept between an object's outline (with its open fingers) and another's
@@ -515,8 +516,10 @@ def head_first_place(
                 break  # the middle would not be over the floor: the next direction
             footprint = offsets @ spin[:2, :2].T + tcp
             under = np.zeros(len(cells), dtype=bool)
-            for point in footprint[:: max(1, len(footprint) // HEAD_FIRST_SAMPLES)]:
-                under |= np.abs(cells - point).max(axis=1) <= HEAD_FIRST_CELL
+            samples = footprint[:: max(1, len(footprint) // HEAD_FIRST_SAMPLES)]
+            for start in range(0, len(samples), SAMPLE_BATCH):
+                points = samples[start : start + SAMPLE_BATCH]
+                under |= (np.abs(cells[None, :, :] - points[:, None, :]).max(axis=2) <= HEAD_FIRST_CELL).any(axis=0)
             z = float(heights[under].max()) + RELEASE_CLEARANCE + held_bottom
             quaternion = matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))
             place = np.concatenate([[tcp[0], tcp[1], z], quaternion])
@@ -567,10 +570,12 @@ def supported_spots(cells: np.ndarray, flat: np.ndarray, middle_offset: np.ndarr
     """TCP positions (N, 2) that put an object's middle (`middle_offset` from the TCP) over a cell of `flat` with
     every cell within SUPPORT_INSET of it flat too."""
     inside = []
-    for cell in cells[flat]:
-        near = np.linalg.norm(cells - cell, axis=1) <= SUPPORT_INSET
-        if flat[near].all() and near.sum() >= np.pi * (SUPPORT_INSET / PLACE_CELL) ** 2 * SUPPORT_SHARE:
-            inside.append(cell)
+    centres = cells[flat]
+    for start in range(0, len(centres), SAMPLE_BATCH):
+        chunk = centres[start : start + SAMPLE_BATCH]
+        near = np.linalg.norm(cells[None, :, :] - chunk[:, None, :], axis=2) <= SUPPORT_INSET
+        enough = near.sum(axis=1) >= np.pi * (SUPPORT_INSET / PLACE_CELL) ** 2 * SUPPORT_SHARE
+        inside.extend(chunk[~(near & ~flat).any(axis=1) & enough])
     return np.array(inside).reshape(-1, 2) - middle_offset
 
 
