@@ -12,6 +12,12 @@ events and trajectory metrics, each right after its twin, so that a change of ma
 line: milliseconds per random control step in the validation environment over those in the state-observation
 environment (medians over the episodes). The two must give the same episodes (events and metrics aside); the script
 stops with an error if they do not.
+
+With --oracle-baseline, each oracle episode is run a second time with the oracle's ray-cast maps cast anew at every
+call (`RAY_MAPS.keep` off: the oracle before it kept them while nothing moved); the script stops with an error if
+the oracle's actions differ, and prints the oracle's median wall and CPU seconds per episode both ways and the ratio
+of the CPU seconds (the machine may be shared). With
+--oracle-only the rest checks and the random episodes are left out.
 """
 
 from __future__ import annotations
@@ -24,14 +30,24 @@ from dataclasses import asdict, replace
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 from tqdm import tqdm
 
 from robolab_ms.envs import register_task_file
 from robolab_ms.eval.recording import EpisodeRecorder
 from robolab_ms.eval.results import TIMING_FIELDS, EpisodeResult
 from robolab_ms.eval.runner import EvalConfig, _run_episode, env_kwargs
-from robolab_ms.eval.validate import ORACLE, RANDOM, REST, ValidationWorker, task_jobs, validation_config
+from robolab_ms.eval.validate import (
+    ORACLE,
+    RANDOM,
+    REST,
+    ValidationWorker,
+    task_jobs,
+    validation_config,
+    validation_env,
+)
 from robolab_ms.policies import RandomPolicy
+from robolab_ms.policies.oracle.world import RAY_MAPS
 from robolab_ms.tasks.spec import load_task
 
 DEFAULT_TASKS = ("BananaInBowl", "ClutterPlastic", "PutMugsOnShelf")  # 2 objects; 17 objects; a rack with boards
@@ -46,12 +62,16 @@ def main() -> None:
         action="store_true",
         help="smallest settings: only checks that the script runs (its numbers mean nothing)",
     )
+    parser.add_argument(
+        "--oracle-baseline", action="store_true", help="also run each oracle episode with its ray-cast maps not kept"
+    )
+    parser.add_argument("--oracle-only", action="store_true", help="run only the oracle's episodes")
     args = parser.parse_args()
     max_steps = None
     if args.quick:
         args.task, args.seeds, max_steps = ["BananaInBowl"], 1, 3
     with tempfile.TemporaryDirectory(prefix="validation-cost-") as folder:
-        measure(args.task, args.seeds, max_steps, Path(folder))
+        measure(args.task, args.seeds, max_steps, Path(folder), args.oracle_baseline, args.oracle_only)
 
 
 def timed(run) -> tuple[object, float, float]:
@@ -73,22 +93,52 @@ def state_env(spec, config: EvalConfig):
     return gym.make(register_task_file(spec.file), task=str(spec.file), **env_kwargs(False, config))
 
 
-def measure(tasks: list[str], seeds: int, max_steps: int | None, out: Path) -> None:
+def recording_actions(worker: ValidationWorker) -> list[np.ndarray]:
+    """The list that the oracle's actions are appended to from now on, one per control step."""
+    oracle = worker.episode_workers[ORACLE].policy.policy
+    actions: list[np.ndarray] = []
+    act = oracle.act
+
+    def recorded(observation):
+        action = act(observation)
+        actions.append(np.array(action, copy=True))
+        return action
+
+    oracle.act = recorded
+    return actions
+
+
+def measure(
+    tasks: list[str],
+    seeds: int,
+    max_steps: int | None,
+    out: Path,
+    oracle_baseline: bool = False,
+    oracle_only: bool = False,
+) -> None:
     specs = [load_task(task) for task in tasks]
     config = validation_config(tuple(str(spec.file) for spec in specs), seeds, 0, None)
     config = replace(config, max_steps=max_steps)
     worker = ValidationWorker(None, config, out, [])
     ours_ms, state_ms = [], []
+    oracle_seconds: dict[bool, list[tuple[float, float]]] = {True: [], False: []}  # (wall, CPU) by maps kept
+    actions = recording_actions(worker)
     print(f"seeds per task: {seeds}" + (f", at most {max_steps} steps per episode" if max_steps else ""))
     try:
         for spec in specs:
             jobs, _ = task_jobs(spec, range(seeds), config, {})
+            if oracle_only:
+                jobs = [job for job in jobs if job.check == ORACLE]
+                worker.close_env()  # the task's environment built before the first episode is timed
+                worker.env, worker.env_task = validation_env(str(spec.file), config), str(spec.file)
             seconds = {REST: [0.0, 0.0], RANDOM: [0.0, 0.0], ORACLE: [0.0, 0.0]}
             random_steps, oracle_results = 0, []
-            baseline = state_env(spec, config)
-            recorder = EpisodeRecorder(baseline, out, config.record, RandomPolicy.name)
+            baseline = None if oracle_only else state_env(spec, config)
+            recorder = None if oracle_only else EpisodeRecorder(baseline, out, config.record, RandomPolicy.name)
             for job in jobs:
+                actions.clear()
                 outcome, wall, cpu = timed(lambda job=job: worker.run(job))
+                kept = np.array(actions)
                 seconds[job.check][0] += wall
                 seconds[job.check][1] += cpu
                 if job.check == RANDOM:
@@ -103,10 +153,34 @@ def measure(tasks: list[str], seeds: int, max_steps: int | None, out: Path) -> N
                         raise SystemExit(f"{spec.name} seed {job.seed}: the state-observation episode differs")
                 elif job.check == ORACLE:
                     oracle_results.append(outcome[0])
-            baseline.close()
+                    oracle_seconds[True].append((wall, cpu))
+                    if oracle_baseline:
+                        actions.clear()
+                        RAY_MAPS.keep = False
+                        try:
+                            _, anew_wall, anew_cpu = timed(lambda job=job: worker.run(job))
+                        finally:
+                            RAY_MAPS.keep = True
+                        oracle_seconds[False].append((anew_wall, anew_cpu))
+                        if not np.array_equal(np.array(actions), kept):
+                            raise SystemExit(f"{spec.name} seed {job.seed}: the oracle's actions differ")
+            if baseline is not None:
+                baseline.close()
             report(spec.name, seconds, random_steps, oracle_results)
     finally:
         worker.close()
+    if oracle_baseline and oracle_seconds[False]:
+        (kept_wall, kept_cpu), (anew_wall, anew_cpu) = (
+            [statistics.median(seconds[i] for seconds in oracle_seconds[kept]) for i in (0, 1)]
+            for kept in (True, False)
+        )
+        print(
+            f"\noracle episodes (the same actions both ways), median wall s: ray-cast maps kept {kept_wall:.2f}, "
+            f"cast anew {anew_wall:.2f}; median CPU s: {kept_cpu:.2f}, {anew_cpu:.2f}"
+        )
+        print(f"ratio maps kept / cast anew (oracle episode, CPU s): {kept_cpu / anew_cpu:.3f}")
+    if not ours_ms:
+        return
     ratio = statistics.median(ours_ms) / statistics.median(state_ms)
     print(
         f"\nrandom episodes, ms per control step: validation env median {statistics.median(ours_ms):.2f}, "

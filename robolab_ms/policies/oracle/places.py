@@ -61,6 +61,7 @@ HEAD_FIRST_MARGIN = 0.012  # m kept between a heavy end and the pot's wall (or w
 HEAD_FIRST_TURNS = 24  # directions of the handle tried around the pot
 HEAD_FIRST_CELL = 0.01  # m between the rays that map the pot and its surroundings
 HEAD_FIRST_SAMPLES = 400  # points of the held tool at most that decide what lies under it
+SAMPLE_BATCH = 64  # points (or cells) compared with a whole map at once
 SUPPORT_INSET = 0.03  # m: every point this near an object's middle lies over the flat top (it rests, not tips)
 SUPPORT_SHARE = 0.8  # the share of the disc of SUPPORT_INSET that must be mapped flat cells
 SHARE_MARGIN = 0.025  # m kept between an object's outline (with its open fingers) and another's
@@ -180,6 +181,47 @@ def map_target(
     return TargetSurface(onto, middle, cells, heights, names, on_target, level, flat)
 
 
+class GridWindows:
+    """Axis-aligned windows over the cells (K, 2) of a map: which cells each of many TCP positions covers with a
+    box relative to it, answered axis by axis on the cells' distinct x and y values (a map's cells form a grid),
+    the same tests `cells - tcp >= low` and `cells - tcp <= high` made cell by cell."""
+
+    def __init__(self, cells: np.ndarray) -> None:
+        self.xs, self.column = np.unique(cells[:, 0], return_inverse=True)
+        self.ys, self.row = np.unique(cells[:, 1], return_inverse=True)
+
+    def within(self, tcps: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per TCP (N, 2), which distinct x values and which y values ((N, X), (N, Y)) lie between `low` and
+        `high` (x, y) relative to it."""
+        along = []
+        for axis, values in ((0, self.xs), (1, self.ys)):
+            local = values[None, :] - tcps[:, axis : axis + 1]
+            along.append((local >= low[axis : axis + 1]) & (local <= high[axis : axis + 1]))
+        return along[0], along[1]
+
+    def around(self, tcps: np.ndarray, offset: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+        """As `within`, the values no more than `reach` from `offset` (x, y) relative to each TCP."""
+        along = []
+        for axis, values in ((0, self.xs), (1, self.ys)):
+            local = values[None, :] - tcps[:, axis : axis + 1]
+            along.append(np.abs(local - offset[axis : axis + 1]) <= reach)
+        return along[0], along[1]
+
+    def grid(self, marked: np.ndarray) -> np.ndarray:
+        """The count of `marked` cells (K,) at each pair of distinct x and y values (X, Y)."""
+        flat_index = self.column * len(self.ys) + self.row
+        counts = np.bincount(flat_index, weights=marked.astype(np.float64), minlength=len(self.xs) * len(self.ys))
+        return counts.reshape(len(self.xs), len(self.ys))
+
+    def holds(self, along_x: np.ndarray, along_y: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        """(N,): whether each window (`along_x`, `along_y` from `within`) holds a cell counted in `counts`."""
+        return ((along_x.astype(np.float64) @ counts) * along_y).sum(axis=1) > 0
+
+    def cover(self, along_x: np.ndarray, along_y: np.ndarray) -> np.ndarray:
+        """(N, K): which cells each window covers."""
+        return along_x[:, self.column] & along_y[:, self.row]
+
+
 def place_pose(
     env: RoboLabEnv,
     name: str,
@@ -258,6 +300,12 @@ def free_place(
     )
     others = surface.others
     is_container = env.eval_context.entries[onto].is_container
+    windows = GridWindows(cells)
+    off_floor, off_floor_on_target, taken = (
+        windows.grid(~flat),
+        windows.grid(~flat & on_target),
+        windows.grid(others),
+    )
     free = []  # release poses, middlemost first
     # the object and the open fingers with room around; where nothing has that room, the object alone; the hand
     # turned about the vertical as little as needed (a long tool fits a bin only along it)
@@ -282,16 +330,22 @@ def free_place(
             centre_offset = (body_low + body_high) / 2
             candidates = cells[flat] - centre_offset  # TCP positions putting the object's middle over a flat cell
             order = np.argsort(np.linalg.norm(candidates + centre_offset - middle, axis=1), kind="stable")
-            for tcp in candidates[order]:
-                local = cells - tcp
-                under = np.all((local >= foot_low) & (local <= foot_high), axis=1)
-                middle_part = under if whole else np.all(np.abs(local - centre_offset) <= PLACE_MIDDLE, axis=1)
-                if not flat[middle_part].all() and (is_container or on_target[middle_part & ~flat].any()):
-                    continue  # on a wall, a rim or the edge (a plate may have the table under the fingers)
-                near = np.all((local >= body_low - margin) & (local <= body_high + margin), axis=1)
-                if others[near].any():
-                    continue
-                z = heights[under].max() + RELEASE_CLEARANCE + held_bottom
+            tcps = candidates[order]
+            under_x, under_y = windows.within(tcps, foot_low, foot_high)
+            if whole:
+                middle_x, middle_y = under_x, under_y
+            else:
+                middle_x, middle_y = windows.around(tcps, centre_offset, PLACE_MIDDLE)
+            # on a wall, a rim or the edge (a plate may have the table under the fingers)
+            on_edge = windows.holds(middle_x, middle_y, off_floor if is_container else off_floor_on_target)
+            crowded = windows.holds(*windows.within(tcps, body_low - margin, body_high + margin), taken)
+            accepted = np.flatnonzero(~on_edge & ~crowded)
+            under = windows.cover(under_x[accepted], under_y[accepted])  # (accepted spots, cells)
+            tops = np.where(under, heights, -np.inf).max(axis=1, initial=-np.inf)
+            for tcp, top, covers in zip(tcps[accepted], tops, under):
+                if not covers.any():
+                    top = heights[covers].max()  # nothing under the object: fails as the maximum of no heights
+                z = top + RELEASE_CLEARANCE + held_bottom
                 free.append(np.concatenate([[tcp[0], tcp[1], z], quaternion]))
             if free and whole:
                 break
@@ -462,8 +516,10 @@ def head_first_place(
                 break  # the middle would not be over the floor: the next direction
             footprint = offsets @ spin[:2, :2].T + tcp
             under = np.zeros(len(cells), dtype=bool)
-            for point in footprint[:: max(1, len(footprint) // HEAD_FIRST_SAMPLES)]:
-                under |= np.abs(cells - point).max(axis=1) <= HEAD_FIRST_CELL
+            samples = footprint[:: max(1, len(footprint) // HEAD_FIRST_SAMPLES)]
+            for start in range(0, len(samples), SAMPLE_BATCH):
+                points = samples[start : start + SAMPLE_BATCH]
+                under |= (np.abs(cells[None, :, :] - points[:, None, :]).max(axis=2) <= HEAD_FIRST_CELL).any(axis=0)
             z = float(heights[under].max()) + RELEASE_CLEARANCE + held_bottom
             quaternion = matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))
             place = np.concatenate([[tcp[0], tcp[1], z], quaternion])
@@ -514,10 +570,12 @@ def supported_spots(cells: np.ndarray, flat: np.ndarray, middle_offset: np.ndarr
     """TCP positions (N, 2) that put an object's middle (`middle_offset` from the TCP) over a cell of `flat` with
     every cell within SUPPORT_INSET of it flat too."""
     inside = []
-    for cell in cells[flat]:
-        near = np.linalg.norm(cells - cell, axis=1) <= SUPPORT_INSET
-        if flat[near].all() and near.sum() >= np.pi * (SUPPORT_INSET / PLACE_CELL) ** 2 * SUPPORT_SHARE:
-            inside.append(cell)
+    centres = cells[flat]
+    for start in range(0, len(centres), SAMPLE_BATCH):
+        chunk = centres[start : start + SAMPLE_BATCH]
+        near = np.linalg.norm(cells[None, :, :] - chunk[:, None, :], axis=2) <= SUPPORT_INSET
+        enough = near.sum(axis=1) >= np.pi * (SUPPORT_INSET / PLACE_CELL) ** 2 * SUPPORT_SHARE
+        inside.extend(chunk[~(near & ~flat).any(axis=1) & enough])
     return np.array(inside).reshape(-1, 2) - middle_offset
 
 

@@ -5,6 +5,8 @@ simulator only; off it the functions that need them say so (None, or assume the 
 
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -279,22 +281,90 @@ def seen_points(env: RoboLabEnv, name: str) -> np.ndarray:
     return points if seen is None or len(seen) < SEEN_MIN_POINTS else np.concatenate([points, seen])
 
 
+def scene_state(env: RoboLabEnv) -> bytes:
+    """The poses of every body of the scene (objects, the robot's links, fixtures) as bytes: equal while nothing
+    in the scene has moved, so that what rays meet is the same."""
+    px = env.scene.px
+    poses = []
+    for component in (
+        *px.get_rigid_dynamic_components(),
+        *px.get_articulation_link_components(),
+        *px.get_rigid_static_components(),
+    ):
+        pose = component.get_entity_pose()
+        poses.append(np.concatenate([pose.p, pose.q]))
+    return np.asarray(poses, dtype=np.float64).tobytes()
+
+
+class RayMaps:
+    """Ray-cast grids of the scene last asked about, kept for as long as nothing in it moves: each map is looked
+    up by what it was cast for and by `scene_state` (the poses of every body), so a map is cast again as soon as
+    any body has moved. A few scene states are kept at once (the planner may move the robot and back). With `keep`
+    False every map is cast anew (the baseline of benchmarks/validation_cost.py)."""
+
+    STATES = 4  # scene states whose maps are kept
+
+    def __init__(self) -> None:
+        self.keep = True
+        self.scene: weakref.ref | None = None
+        self.maps: OrderedDict[bytes, dict[tuple, object]] = OrderedDict()
+
+    def of(self, env: RoboLabEnv) -> dict[tuple, object]:
+        """The maps cast in `env`'s scene as it is now (an empty dict to fill where it has moved)."""
+        if self.scene is None or self.scene() is not env.scene:
+            self.scene, self.maps = weakref.ref(env.scene), OrderedDict()
+        state = scene_state(env)
+        if state in self.maps:
+            self.maps.move_to_end(state)
+        else:
+            self.maps[state] = {}
+            while len(self.maps) > self.STATES:
+                self.maps.popitem(last=False)
+        return self.maps[state]
+
+    def clear(self) -> None:
+        """Forget every map."""
+        self.scene, self.maps = None, OrderedDict()
+
+
+RAY_MAPS = RayMaps()
+
+
 def surface_grid(
     env: RoboLabEnv, name: str, middle: np.ndarray, radius: float, cell: float
 ) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
     """The first thing that vertical rays meet, passing through the robot and object `name`, on a grid of `cell`
     spacing around `middle`: cell centres (K, 2), heights (K,; the table's, or 0, where no object is) and the
-    names of the objects hit (None: the table or nothing)."""
+    names of the objects hit (None: the table or nothing). Cast once while nothing in the scene moves (`RAY_MAPS`)."""
+    middle = np.asarray(middle)
+    key = ("surface", name, middle.dtype.str, middle.tobytes(), type(radius), radius, type(cell), cell)
+    if not RAY_MAPS.keep:
+        return cast_surface_grid(env, name, middle, radius, cell)
+    maps = RAY_MAPS.of(env)
+    if key not in maps:
+        maps[key] = cast_surface_grid(env, name, middle, radius, cell)
+    cells, heights, names = maps[key]
+    return cells.copy(), heights.copy(), list(names)
+
+
+def cast_surface_grid(
+    env: RoboLabEnv, name: str, middle: np.ndarray, radius: float, cell: float
+) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
+    """`surface_grid`, cast anew."""
     owner = {entity: other for other, actor in env.objects.items() for entity in actor._objs}
     robot = {link.entity for link in env.agent.robot._objs[0].links}
     steps = np.arange(-radius, radius + 1e-9, cell)
     cells = np.stack(np.meshgrid(steps, steps), axis=-1).reshape(-1, 2) + middle
     heights, names = np.zeros(len(cells)), [None] * len(cells)
     down = np.array([0.0, 0.0, -1.0], dtype=np.float32)
-    for index, (x, y) in enumerate(cells):
+    start = np.zeros(3, dtype=np.float32)
+    raycast = env.scene.px.raycast
+    for index, (x, y) in enumerate(cells.tolist()):
         z = OBSTACLE_CEILING
+        start[0], start[1] = x, y
         for _ in range(RAY_PASSES):  # through the robot and the object itself, down to the first other object
-            hit = env.scene.px.raycast(np.array([x, y, z], dtype=np.float32), down, z + 0.05)
+            start[2] = z
+            hit = raycast(start, down, z + 0.05)
             if hit is None:
                 break
             entity, z = hit.component.entity, z - hit.distance
