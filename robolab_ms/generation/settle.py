@@ -2,7 +2,9 @@
 
 The scene is built as every episode builds it (RoboLabSceneBuilder, the jitter off) and the simulation runs 300
 physics steps with the arm still: an object that moves more than 2 cm makes the scene unstable, the criterion of
-`robolab validate` (robolab_ms.eval.validate). Relations are then judged by the task predicates
+`robolab validate` (robolab_ms.eval.validate). With `jittered_seeds`, the same check runs again on the jittered
+layouts of the episodes with those first seeds, the layouts validation starts from: an object that rests on the
+edge of its stability (a round stick that starts to roll) can hold still at its nominal place and move at another. Relations are then judged by the task predicates
 (robolab_ms.tasks.predicates: left_of ..., next_to, on_top, in_container, stacked) on the settled state, and by
 geometry for what no predicate covers (a place on the table, alignment, facing).
 """
@@ -43,9 +45,12 @@ class SettleResult:
         return {name: value for name, value in self.drift.items() if value > MAX_DRIFT_M}
 
 
-def settle(spec: SceneSpec, relations: dict[str, list[Relation]], catalog: Catalog) -> SettleResult:
+def settle(
+    spec: SceneSpec, relations: dict[str, list[Relation]], catalog: Catalog, jittered_seeds: int = 0
+) -> SettleResult:
     """Build the scene at its nominal layout, run STABILITY_PHYSICS_STEPS physics steps, judge each list of
-    relations (for example "requested" and "answer")."""
+    relations (for example "requested" and "answer"); the drift counts the jittered layouts of episode seeds
+    0 .. jittered_seeds - 1 too."""
     from robolab_ms.scene.builder import table_entry
     from robolab_ms.scene.scene_env import SceneOnlyEnv
     from robolab_ms.tasks.context import EvalContext
@@ -71,7 +76,31 @@ def settle(spec: SceneSpec, relations: dict[str, list[Relation]], catalog: Catal
             result.holds[key] = [relation_holds(context, relation, set(objects)) for relation in judged]
     finally:
         env.close()
+    if jittered_seeds > 0 and spec.objects:
+        for name, drift in jittered_drift(spec, jittered_seeds).items():
+            result.drift[name] = max(result.drift.get(name, 0.0), drift)
     return result
+
+
+def jittered_drift(spec: SceneSpec, seeds: int) -> dict[str, float]:
+    """The largest drift (m) of each object over STABILITY_PHYSICS_STEPS physics steps from the jittered layouts
+    of episode seeds 0 .. seeds - 1."""
+    from robolab_ms.scene.scene_env import SceneOnlyEnv
+
+    env = SceneOnlyEnv(spec, sim_backend="cpu", render_backend="cpu")
+    drift: dict[str, float] = {}
+    try:
+        for seed in range(seeds):
+            env.reset(seed=seed)
+            objects = env.builder.objects
+            start = {name: actor.pose.p[0].clone() for name, actor in objects.items()}
+            for _ in range(STABILITY_PHYSICS_STEPS):
+                env.scene.step()
+            for name, actor in objects.items():
+                drift[name] = max(drift.get(name, 0.0), float((actor.pose.p[0] - start[name]).norm()))
+    finally:
+        env.close()
+    return drift
 
 
 def relation_holds(context, relation: Relation, present: set[str]) -> bool:

@@ -10,7 +10,8 @@ Spatial solver: every pile base (an object standing on the table, with its pile'
 reachable area. Relations are targets: a direction puts the subject that far along +-x / +-y from its reference
 (within a narrow cone, so the predicates' 45-degree cone holds), `next_to` puts it beside, `aligned_with` shares
 an x or a y, `on_table` fixes a place. Iterations alternate pulling subjects to their targets, pushing overlapping
-outlines apart (separating axes, with a gap for the fingers) and keeping outlines in the area. When they do not
+outlines apart (separating axes, with a gap for the fingers; between an open container and a stack, at least the
+height of the stack's upper objects, see `pair_gap`) and keeping outlines in the area. When they do not
 converge, the solver relaxes: it drops the relation furthest from holding (a fixed place becomes free), records
 it, and continues; relaxed relations are reported.
 """
@@ -154,7 +155,8 @@ def pile_outline(base: str, proposal: SceneProposal, catalog: Catalog, members: 
 # ------------------------------------------------------------------------------------------------ spatial solver
 @dataclass
 class Body:
-    """A pile base on the table: its pile's outline (base frame), place, yaw, and whether its place is fixed."""
+    """A pile base on the table: its pile's outline (base frame), place, yaw, whether its place is fixed, whether
+    the base is an open container, and the height from which the highest object resting on top of it could fall."""
 
     name: str
     outline: np.ndarray
@@ -162,6 +164,9 @@ class Body:
     yaw: float
     fixed: bool = False
     facing: str | None = None  # an object's name or 'robot': the yaw follows it
+    container: bool = False
+    perch: float = 0.0  # m above the table top: the bottom of the pile's highest object resting on top of another
+    beside: set[str] = field(default_factory=set)  # the piles a next_to relation ties it to
 
     def polygon(self) -> np.ndarray:
         return self.outline @ rotation2(self.yaw).T + self.xy
@@ -169,6 +174,31 @@ class Body:
     def extent(self, direction: np.ndarray) -> float:
         """How far the outline reaches from the origin along `direction`."""
         return float(((self.polygon() - self.xy) @ direction).max())
+
+
+def pair_gap(a: Body, b: Body) -> float:
+    """The free space the solver aims for between two piles: GAP, or, between an open container and a pile with
+    objects resting on top of others, at least the height those objects sit at, so that one knocked off its
+    perch lands on the table and not in the container (unless a next_to relation ties the two)."""
+    if a.container != b.container and b.name not in a.beside:
+        return max(GAP, b.perch if a.container else a.perch)
+    return GAP
+
+
+def perch_height(base: str, proposal: SceneProposal, catalog: Catalog) -> float:
+    """How high above the table top the highest object resting on top of another (not inside a container) in
+    `base`'s pile sits (0 when none does)."""
+    support = proposal.support_of()
+    inside = {relation.subject for relation in proposal.relations if relation.kind == "inside"}
+
+    def bottom(name: str) -> float:
+        if name not in support:
+            return 0.0
+        below = support[name]
+        return bottom(below) + float(catalog[proposal.objects[below]].dimensions[2])
+
+    perched = [name for name in support if name not in inside and proposal.base_of(name) == base]
+    return max((bottom(name) for name in perched), default=0.0)
 
 
 def separation(a: np.ndarray, b: np.ndarray) -> tuple[float, np.ndarray]:
@@ -222,7 +252,8 @@ class Constraint:
 
     def least_distance(self, bodies: dict[str, Body], u: np.ndarray) -> float:
         """The smallest centre distance along u at which subject and reference outlines keep the gap."""
-        return bodies[self.reference].extent(u) + bodies[self.subject].extent(-u) + GAP
+        s, r = bodies[self.subject], bodies[self.reference]
+        return r.extent(u) + s.extent(-u) + (GAP if self.relation.kind == "next_to" else pair_gap(s, r))
 
     def error(self, bodies: dict[str, Body]) -> float:
         """How far the subject is from holding the relation (m)."""
@@ -269,7 +300,13 @@ def solve_layout(proposal: SceneProposal, catalog: Catalog, seed: int = 0) -> La
     bases = [name for name in proposal.objects if name not in support]
     bodies = {
         name: Body(
-            name, pile_outline(name, proposal, catalog, members), np.zeros(2), yaws[name], facing=facing.get(name)
+            name,
+            pile_outline(name, proposal, catalog, members),
+            np.zeros(2),
+            yaws[name],
+            facing=facing.get(name),
+            container=catalog[proposal.objects[name]].is_container,
+            perch=perch_height(name, proposal, catalog),
         )
         for name in bases
     }
@@ -279,6 +316,10 @@ def solve_layout(proposal: SceneProposal, catalog: Catalog, seed: int = 0) -> La
             subject, reference = proposal.base_of(relation.subject), proposal.base_of(relation.reference)
             if subject != reference:
                 constraints.append(Constraint(relation, subject, reference))
+    for constraint in constraints:
+        if constraint.relation.kind == "next_to":
+            bodies[constraint.subject].beside.add(constraint.reference)
+            bodies[constraint.reference].beside.add(constraint.subject)
     for name, relation in fixed.items():
         if name in bodies:
             bodies[name].xy = np.array([relation.x, relation.y])
@@ -404,7 +445,10 @@ def _initial_places(bodies: dict[str, Body], constraints: list[Constraint], rng:
         for _ in range(40):
             body.xy = np.array([rng.uniform(*SAFE_PLACEMENT["x"]), rng.uniform(*SAFE_PLACEMENT["y"])])
             _keep_in_reach(body)
-            overlap = sum(max(0.0, separation(body.polygon(), bodies[other].polygon())[0] + GAP) for other in placed)
+            overlap = sum(
+                max(0.0, separation(body.polygon(), bodies[other].polygon())[0] + pair_gap(body, bodies[other]))
+                for other in placed
+            )
             if overlap < best_overlap:
                 best, best_overlap = body.xy.copy(), overlap
         body.xy = best
@@ -454,7 +498,7 @@ def _iterate(bodies: dict[str, Body], constraints: list[Constraint], layout: Lay
             for second in names[i + 1 :]:
                 a, b = bodies[first], bodies[second]
                 depth, axis = separation(a.polygon(), b.polygon())
-                need = depth + GAP
+                need = depth + pair_gap(a, b)
                 if need <= 0:
                     continue
                 share_a = 0.0 if a.fixed else (1.0 if b.fixed else 0.5)
