@@ -103,6 +103,7 @@ TIP_START_GAP = 0.02  # ... starting this far from its near side ...
 TIP_ANGLE = np.radians(80.0)  # ... and following that point as the object turns this far about its far edge ...
 TIP_STEPS = 8  # ... in this many straight moves
 FINGER_HALF_THICKNESS = 0.014  # m from the TCP to the face of the closed fingers that pushes
+TIP_TURNS = (0.0, 20.0, -20.0, 40.0, -40.0)  # degrees from an upside-down object's short axis it may be pushed
 TIP_LANDING_MARGIN = 0.01  # m kept between the side it falls onto and any other object
 
 
@@ -631,33 +632,35 @@ def upside_down(env: RoboLabEnv, name: str) -> bool:
 
 def tip_directions(env: RoboLabEnv, name: str) -> list[np.ndarray]:
     """The horizontal directions in which upside-down object `name` can be pushed over onto a free stretch of the
-    table: along its footprint's short axis first (a mug then falls with its handle beside it, not under it), then
-    its long axis, each away from the robot first; only those where the side it falls onto (its height beyond its
-    far side, as wide as it is) keeps TIP_LANDING_MARGIN from every other object."""
+    table: its footprint's short axis either way and those turned from it by TIP_TURNS (a mug then falls with its
+    handle beside it, not under it), the least turned first and of those the one with more room; only those where
+    the side it falls onto (its height beyond its far side, as wide as it is) keeps TIP_LANDING_MARGIN from every
+    other object."""
     points = world_points(env, name)
     flat = points[:, :2] - points[:, :2].mean(axis=0)
-    _, _, axes = np.linalg.svd(flat, full_matrices=False)  # rows: the long axis, then the short one
-    middle = centre(env, name)[:2]
+    short = np.linalg.svd(flat, full_matrices=False)[2][1]  # the footprint's short axis
+    middle = points[:, :2].mean(axis=0)
     height = float(np.ptp(points[:, 2]))
     others = [world_points(env, other) for other in env.objects if other != name]
+    others = np.concatenate([other[other[:, 2] < height + TIP_LANDING_MARGIN, :2] for other in others]) - middle
     found = []
-    for axis in (axes[1], axes[0]):
-        outward = axis if float(axis @ middle) >= 0.0 else -axis
-        for direction in (outward, -outward):
+    for turn in TIP_TURNS:
+        for sign in (1.0, -1.0):
+            angle = np.radians(turn) + (0.0 if sign > 0 else np.pi)
+            direction = np.array(
+                [
+                    short[0] * np.cos(angle) - short[1] * np.sin(angle),
+                    short[0] * np.sin(angle) + short[1] * np.cos(angle),
+                ]
+            )
             across = np.array([-direction[1], direction[0]])
-            along = flat @ direction
-            half_across = float(np.abs(flat @ across).max()) + TIP_LANDING_MARGIN
-            near, far = float(along.max()) - TIP_LANDING_MARGIN, float(along.max()) + height + TIP_LANDING_MARGIN
-            clear = True
-            for other in others:
-                rel = other[:, :2] - middle
-                on = (rel @ direction > near) & (rel @ direction < far) & (np.abs(rel @ across) < half_across)
-                if np.any(on & (other[:, 2] < height + TIP_LANDING_MARGIN)):
-                    clear = False
-                    break
-            if clear:
-                found.append(np.array([direction[0], direction[1], 0.0]))
-    return found
+            beyond = others @ direction - float((flat @ direction).max())  # from the far side, along the push
+            sideways = np.abs(others @ across) - float(np.abs(flat @ across).max())  # outside its width
+            gap = np.maximum(np.maximum(beyond - height, -beyond), sideways)  # outside the side it falls onto
+            clearance = float(gap.min(initial=np.inf))
+            if clearance >= TIP_LANDING_MARGIN:
+                found.append((abs(turn), -clearance, np.array([direction[0], direction[1], 0.0])))
+    return [direction for *_, direction in sorted(found, key=lambda entry: entry[:2])]
 
 
 def tip_onto_side(motion: MotionPlanner, name: str) -> None:
