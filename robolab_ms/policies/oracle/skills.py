@@ -104,7 +104,8 @@ TIP_ANGLE = np.radians(80.0)  # ... and following that point as the object turns
 TIP_STEPS = 8  # ... in this many straight moves
 FINGER_HALF_THICKNESS = 0.014  # m from the TCP to the face of the closed fingers that pushes
 TIP_TURNS = (0.0, 20.0, -20.0, 40.0, -40.0)  # degrees from an upside-down object's short axis it may be pushed
-TIP_LANDING_MARGIN = 0.01  # m kept between the side it falls onto and any other object
+TIP_LANDING_MARGIN = 0.01  # m kept between the side it falls onto and any other object ...
+TIP_TRAVEL = 0.05  # ... and this much further out where there is room (it rolls, and stands up further out)
 
 
 def _where(onto: str | None, at: tuple[float, float] | None) -> str:
@@ -630,12 +631,12 @@ def upside_down(env: RoboLabEnv, name: str) -> bool:
     return tilt(env, name) > UPSIDE_DOWN_TILT
 
 
-def tip_directions(env: RoboLabEnv, name: str) -> list[np.ndarray]:
+def tip_directions(env: RoboLabEnv, name: str, travel: float = TIP_TRAVEL) -> list[np.ndarray]:
     """The horizontal directions in which upside-down object `name` can be pushed over onto a free stretch of the
     table: its footprint's short axis either way and those turned from it by TIP_TURNS (a mug then falls with its
     handle beside it, not under it), the least turned first and of those the one with more room; only those where
-    the side it falls onto (its height beyond its far side, as wide as it is) keeps TIP_LANDING_MARGIN from every
-    other object."""
+    the stretch it falls onto (its height and `travel` more beyond its far side, as wide as it is) keeps
+    TIP_LANDING_MARGIN from every other object."""
     points = world_points(env, name)
     flat = points[:, :2] - points[:, :2].mean(axis=0)
     short = np.linalg.svd(flat, full_matrices=False)[2][1]  # the footprint's short axis
@@ -656,7 +657,7 @@ def tip_directions(env: RoboLabEnv, name: str) -> list[np.ndarray]:
             across = np.array([-direction[1], direction[0]])
             beyond = others @ direction - float((flat @ direction).max())  # from the far side, along the push
             sideways = np.abs(others @ across) - float(np.abs(flat @ across).max())  # outside its width
-            gap = np.maximum(np.maximum(beyond - height, -beyond), sideways)  # outside the side it falls onto
+            gap = np.maximum(np.maximum(beyond - height - travel, -beyond), sideways)  # outside the side it falls onto
             clearance = float(gap.min(initial=np.inf))
             if clearance >= TIP_LANDING_MARGIN:
                 found.append((abs(turn), -clearance, np.array([direction[0], direction[1], 0.0])))
@@ -667,9 +668,10 @@ def tip_onto_side(motion: MotionPlanner, name: str) -> None:
     """Push upside-down object `name` over onto its side: the closed fingers, pointing down, come down beside it
     and push its near side just below its top (TIP_BELOW_TOP) along the arc that point takes as the object turns
     about the far edge of its footprint (TIP_STEPS straight moves, to TIP_ANGLE, past its balance); then the hand
-    rises. The first of `tip_directions` with a motion plan; OracleFailure where none has one."""
+    rises. The first of `tip_directions` with a motion plan (those with room for it to roll and stand up first);
+    OracleFailure where none has one."""
     env = motion.env
-    directions = tip_directions(env, name)
+    directions = tip_directions(env, name) or tip_directions(env, name, travel=0.0)
     if not directions:
         raise OracleFailure(f"'{name}' is upside down and there is no free room beside it to tip it onto its side")
     points = world_points(env, name)
