@@ -28,12 +28,15 @@ from robolab_ms.policies.oracle.skills import (
     pick_and_place,
     side_hold_pick_and_place,
     stand_upright,
+    tip_onto_side,
+    upside_down,
 )
 from robolab_ms.policies.oracle.world import covered, lying_container
 
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
 
+TIPS = 3  # times an upside-down object is pushed over before its job gives up
 JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
 JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
 SLIP_DISTANCE = 0.05  # m the held object may move away from the hand (its grip settled) before it counts as slipped
@@ -73,6 +76,7 @@ class OraclePolicy(Policy):
         self.job: Job | None = None  # the job whose actions are being replayed
         self._job_settled = False  # whether the hand has held still once after it, before the second check
         self.retries: dict[str, int] = {}  # per object: jobs planned again
+        self.tips: dict[str, int] = {}  # per object: pushes that tipped it (or tried to) from upside down
         self.grasps: dict[str, list[np.ndarray]] = {}  # per object: the grasps its jobs were planned with
         self._closed_steps = 0  # actions replayed in a row with the gripper closed
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
@@ -155,6 +159,9 @@ class OraclePolicy(Policy):
                 return
             job = self.job = Job(job.obj, onto=job.onto, centred=job.centred)
         if job.upright:
+            if upside_down(env, job.obj):  # first onto its side (then stood up by the job planned again)
+                self._tip_first(job)
+                return
             stand_upright(motion, job.obj)
             return
         where = {"onto": job.onto, "at": job.at}
@@ -183,6 +190,17 @@ class OraclePolicy(Policy):
             return False
         self.jobs.appendleft(Job(job.obj, onto=job.onto, centred=job.centred))
         return True
+
+    def _tip_first(self, job: Job) -> None:
+        """Queue the push that tips `job`'s upside-down object onto its side and put the job back at the front of
+        the jobs, to be planned again from where the object lies; OracleFailure once it has been pushed TIPS times."""
+        used = self.tips.get(job.obj, 0)
+        if used >= TIPS:
+            raise OracleFailure(f"'{job.obj}' is still upside down after {used} pushes to tip it onto its side")
+        self.tips[job.obj] = used + 1
+        tip_onto_side(self.motion, job.obj)
+        self.job = None  # only the push is queued: the job planned again is the one checked
+        self.jobs.appendleft(job)
 
     def _side_hold(self, job: Job) -> bool:
         """Plan `job` (onto the table or into a container) with a side hold of its object's handle, where the object

@@ -9,7 +9,10 @@
   pulled straight out;
 - `side_hold_pick_and_place`: a long tool held by its handle from the side where it reaches out of a container;
 - `stand_upright`: a lying object stood up, tipped about its base (`pivot_upright`, holding a container's rim or
-  a narrow end) or lifted and turned in the air (`lift_and_turn_upright`).
+  a narrow end) or lifted and turned in the air (`lift_and_turn_upright`);
+- `tip_onto_side`: an object standing upside down pushed over at its top edge onto its side, from where
+  `stand_upright` stands it up (a regrasp in two quarter turns; a mug wider than the open fingers has no grasp
+  that turns it over in one).
 A skill raises OracleFailure where it cannot be planned, and then leaves nothing of itself queued.
 """
 
@@ -22,6 +25,7 @@ import numpy as np
 from robolab_ms.policies.oracle.clearance import APPROACH_HEIGHT, LIFT_HEIGHT, above, held_spread, high_carry
 from robolab_ms.policies.oracle.failure import OracleFailure
 from robolab_ms.policies.oracle.geometry import (
+    down_quaternion,
     matrix_to_quaternion,
     quat_to_matrix,
     raised,
@@ -58,12 +62,14 @@ from robolab_ms.policies.oracle.side_grasps import (
     turned_rim_grasps,
 )
 from robolab_ms.policies.oracle.world import (
+    UPSIDE_DOWN_TILT,
     centre,
     container_below,
     fixture_boxes,
     is_heavy,
     is_tool,
     object_bottom,
+    tilt,
     world_points,
 )
 
@@ -92,6 +98,14 @@ SIDE_BACK_OUT = 0.08  # m the hand backs out along its approach after letting go
 SIDE_RETREAT = 0.05  # m the hand rises after backing out
 RISE_STEP = 0.04  # m per straight move of a lift from a side hold
 MAX_SWING = 0.6  # rad a joint may turn in a lift's step that is not a straight move, once it has risen SIDE_LIFT_MIN
+TIP_BELOW_TOP = 0.012  # m below an upside-down object's top where the closed fingertips push it over ...
+TIP_START_GAP = 0.02  # ... starting this far from its near side ...
+TIP_ANGLE = np.radians(80.0)  # ... and following that point as the object turns this far about its far edge ...
+TIP_STEPS = 8  # ... in this many straight moves
+FINGER_HALF_THICKNESS = 0.014  # m from the TCP to the face of the closed fingers that pushes
+TIP_TURNS = (0.0, 20.0, -20.0, 40.0, -40.0)  # degrees from an upside-down object's short axis it may be pushed
+TIP_LANDING_MARGIN = 0.01  # m kept between the side it falls onto and any other object ...
+TIP_TRAVEL = 0.05  # ... and this much further out where there is room (it rolls, and stands up further out)
 
 
 def _where(onto: str | None, at: tuple[float, float] | None) -> str:
@@ -609,3 +623,92 @@ def lift_and_turn_upright(motion: MotionPlanner, name: str, up: np.ndarray, clos
         motion.move(qpos, raised(back, APPROACH_HEIGHT), f"raise the hand above '{name}'")
     except OracleFailure:
         pass
+
+
+# ------------------------------------------------------------------------------------------------ turning over
+def upside_down(env: RoboLabEnv, name: str) -> bool:
+    """Whether object `name` stands on its top: its up axis points down, further than a lying object's."""
+    return tilt(env, name) > UPSIDE_DOWN_TILT
+
+
+def tip_directions(env: RoboLabEnv, name: str, travel: float = TIP_TRAVEL) -> list[np.ndarray]:
+    """The horizontal directions in which upside-down object `name` can be pushed over onto a free stretch of the
+    table: its footprint's short axis either way and those turned from it by TIP_TURNS (a mug then falls with its
+    handle beside it, not under it), the least turned first and of those the one with more room; only those where
+    the stretch it falls onto (its height and `travel` more beyond its far side, as wide as it is) keeps
+    TIP_LANDING_MARGIN from every other object."""
+    points = world_points(env, name)
+    flat = points[:, :2] - points[:, :2].mean(axis=0)
+    short = np.linalg.svd(flat, full_matrices=False)[2][1]  # the footprint's short axis
+    middle = points[:, :2].mean(axis=0)
+    height = float(np.ptp(points[:, 2]))
+    others = [world_points(env, other) for other in env.objects if other != name]
+    others = np.concatenate([other[other[:, 2] < height + TIP_LANDING_MARGIN, :2] for other in others]) - middle
+    found = []
+    for turn in TIP_TURNS:
+        for sign in (1.0, -1.0):
+            angle = np.radians(turn) + (0.0 if sign > 0 else np.pi)
+            direction = np.array(
+                [
+                    short[0] * np.cos(angle) - short[1] * np.sin(angle),
+                    short[0] * np.sin(angle) + short[1] * np.cos(angle),
+                ]
+            )
+            across = np.array([-direction[1], direction[0]])
+            beyond = others @ direction - float((flat @ direction).max())  # from the far side, along the push
+            sideways = np.abs(others @ across) - float(np.abs(flat @ across).max())  # outside its width
+            gap = np.maximum(np.maximum(beyond - height - travel, -beyond), sideways)  # outside the side it falls onto
+            clearance = float(gap.min(initial=np.inf))
+            if clearance >= TIP_LANDING_MARGIN:
+                found.append((abs(turn), -clearance, np.array([direction[0], direction[1], 0.0])))
+    return [direction for *_, direction in sorted(found, key=lambda entry: entry[:2])]
+
+
+def tip_onto_side(motion: MotionPlanner, name: str) -> None:
+    """Push upside-down object `name` over onto its side: the closed fingers, pointing down, come down beside it
+    and push its near side just below its top (TIP_BELOW_TOP) along the arc that point takes as the object turns
+    about the far edge of its footprint (TIP_STEPS straight moves, to TIP_ANGLE, past its balance); then the hand
+    rises. The first of `tip_directions` with a motion plan (those with room for it to roll and stand up first);
+    OracleFailure where none has one."""
+    env = motion.env
+    directions = tip_directions(env, name) or tip_directions(env, name, travel=0.0)
+    if not directions:
+        raise OracleFailure(f"'{name}' is upside down and there is no free room beside it to tip it onto its side")
+    points = world_points(env, name)
+    middle = centre(env, name)
+    top, bottom = float(points[:, 2].max()), float(points[:, 2].min())
+    failure = None
+    for direction in directions:
+        along = (points[:, :2] - middle[:2]) @ direction[:2]
+        orientation = down_quaternion(np.array([-direction[1], direction[0], 0.0]))  # fingers' width along the push
+        contact = np.concatenate([middle[:2] + direction[:2] * float(along.min()), [top - TIP_BELOW_TOP]])
+        pivot = np.concatenate([middle[:2] + direction[:2] * float(along.max()), [bottom]])
+        axis = np.cross([0.0, 0.0, 1.0], direction)
+        arc = []
+        for step in range(TIP_STEPS + 1):
+            turn = rotation_about(axis, TIP_ANGLE * step / TIP_STEPS)
+            at = pivot + turn @ (contact - pivot) - turn @ direction * FINGER_HALF_THICKNESS
+            arc.append(np.concatenate([at, orientation]))
+        start = shifted(arc[0], -direction * TIP_START_GAP)
+        planned = motion.mark()
+        try:
+            qpos = motion.current_qpos()
+            motion.hold(qpos, 1.0, GRIPPER_STEPS)  # closed: the fingers push as one block
+            qpos = motion.move(qpos, raised(start, APPROACH_HEIGHT), f"reach beside '{name}'", straight=False)
+            qpos = motion.move(qpos, start, f"come down beside '{name}'")
+            paths = motion.straight_chain(qpos, arc)
+            if paths is None:
+                raise OracleFailure(f"cannot push '{name}' over: no straight moves along the arc")
+            for path in paths:
+                qpos = motion.queue(qpos, path)
+        except OracleFailure as error:
+            motion.rewind(planned)
+            failure = error
+            continue
+        try:  # the object is over: rising away is a courtesy, not a must
+            qpos = motion.move(qpos, raised(arc[-1], APPROACH_HEIGHT), f"raise the hand from '{name}'")
+        except OracleFailure:
+            pass
+        motion.hold(qpos, 0.0, GRIPPER_STEPS)
+        return
+    raise failure
