@@ -840,7 +840,8 @@ def _joined(meshes: Sequence[TriangleMesh]) -> TriangleMesh:
 def puzzle_cube(size: float = 0.057, bevel: float = 0.004, grid: int = 3, gap: float = 0.0022) -> Model:
     """A Rubik's-style puzzle cube of edge `size`: a body with rounded edges (first colour) and `grid` x `grid`
     square stickers on the flat of each face, one colour per face (colours 2 to 7: +z, -z, +x, -x, +y,
-    -y), standing 0.4 mm proud of the body. Collision: the body's hull at the full size."""
+    -y), standing 0.4 mm proud of the body. Collision: a sharp-edged box of the full size, as the procedural cube's
+    (on rounded edges the top of a stack of three cubes slid off at rest)."""
     proud = 0.0004
     body, _ = rounded_box((size - 2 * proud,) * 3, bevel, (0.0, 0.0, size / 2))
     surfaces = [Surface(body, 0)]
@@ -863,8 +864,9 @@ def puzzle_cube(size: float = 0.057, bevel: float = 0.004, grid: int = 3, gap: f
                 centre[across[1]] += b
                 tiles.append(rounded_box(extent, min(0.0025, thickness / 2 * 0.99), centre)[0])
         surfaces.append(Surface(_joined(tiles), tint, "plastic"))  # each tile is one sticker, plain
-    _, hull = rounded_box((size,) * 3, bevel, (0.0, 0.0, size / 2))
-    return Model(tuple(surfaces), (hull,))
+    half = size / 2
+    box = np.array([[x, y, z + half] for x in (-half, half) for y in (-half, half) for z in (-half, half)])
+    return Model(tuple(surfaces), (box,))
 
 
 def fruit(
