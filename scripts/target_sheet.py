@@ -23,13 +23,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 ROOT = Path(__file__).resolve().parents[1]
 SHEET = ROOT / "docs" / "images" / "fidelity" / "task_targets.png"
-BADGES = {
-    "scanned": (40, 140, 60),
-    "modelled": (40, 90, 170),
-    "primitive": (120, 120, 120),
-    "procedural": (120, 120, 120),
-    "packaged": (150, 110, 40),
-}
+OLD_KINDS = {"procedural": (120, 120, 120), "packaged": (150, 110, 40)}  # an old catalog's tags (no shape field)
 
 
 def task_targets() -> dict[str, str]:
@@ -71,6 +65,8 @@ def render_tiles(tag: str, out: Path, tile: int) -> None:
 
 
 def sheet(out: Path, tile: int, columns: int) -> None:
+    from robolab_ms.catalog.check import draw_shape_badge
+
     before = json.loads((out / "before" / "targets.json").read_text())
     after = json.loads((out / "after" / "targets.json").read_text())
     pairs = Counter(
@@ -101,7 +97,7 @@ def sheet(out: Path, tile: int, columns: int) -> None:
             picture = Image.open(out / tag / f"{name}.png").convert("RGB").resize((tile, tile))
             image.paste(picture, (x + offset * tile, y))
             kind = mapping["kinds"][name]
-            _badge(draw, font, (x + offset * tile, y), kind)
+            draw_shape_badge(draw, font, (x + offset * tile, y), kind, OLD_KINDS.get(kind))
         caption = new if old == new else f"{old[:17]} > {new[:17]}"
         note = "  (unchanged)" if same(old, new) else "  (remodelled)" if old == new else ""
         draw.text((x + 2, y + tile + 1), caption[:40], fill=(0, 0, 0), font=font)
@@ -110,13 +106,6 @@ def sheet(out: Path, tile: int, columns: int) -> None:
     image.save(SHEET, optimize=True)
     changed = sum(count for (old, new), count in pairs.items() if not same(old, new))
     print(f"contact sheet: {SHEET} ({image.width}x{image.height}); {len(ordered)} pairs, {changed} placements changed")
-
-
-def _badge(draw, font, corner: tuple[int, int], kind: str) -> None:
-    left, top, right, bottom = draw.textbbox((0, 0), kind, font=font)
-    x, y = corner
-    draw.rectangle((x, y, x + right - left + 3, y + bottom + 2), fill=BADGES[kind])
-    draw.text((x + 2, y + 1), kind, fill=(255, 255, 255), font=font)
 
 
 def main() -> None:

@@ -265,11 +265,14 @@ MIN_TILE = 16  # pixels: smaller tiles show nothing recognisable
 SHAPE_BADGE_COLOURS = {"scanned": (40, 140, 60), "modelled": (40, 90, 170), "primitive": (120, 120, 120)}
 
 
-def _draw_shape_badge(draw, font, corner: tuple[int, int], shape: str) -> None:
-    """The object's shape kind (scanned, modelled, primitive) in white on a coloured tag at a tile's top left."""
+def draw_shape_badge(
+    draw, font, corner: tuple[int, int], shape: str, colour: tuple[int, int, int] | None = None
+) -> None:
+    """The object's shape kind (scanned, modelled, primitive) in white on a coloured tag at a tile's top left;
+    `colour` for a label that is not one of the kinds."""
     left, top, right, bottom = draw.textbbox((0, 0), shape, font=font)
     x, y = corner
-    draw.rectangle((x, y, x + right - left + 3, y + bottom + 2), fill=SHAPE_BADGE_COLOURS[shape])
+    draw.rectangle((x, y, x + right - left + 3, y + bottom + 2), fill=colour or SHAPE_BADGE_COLOURS[shape])
     draw.text((x + 2, y + 1), shape, fill=(255, 255, 255), font=font)
 
 
@@ -304,7 +307,7 @@ def contact_sheet(
         sheet.paste(Image.fromarray(rgb), (x, y))
         label = name if len(name) <= 19 else name[:18] + "~"
         draw.text((x + 2, y + tile + 1), label, fill=(0, 0, 0), font=font)
-        _draw_shape_badge(draw, font, (x, y), catalog[name].shape)
+        draw_shape_badge(draw, font, (x, y), catalog[name].shape)
         if (index + 1) % columns == 0 or index + 1 == len(names):
             progress(f"rendered {index + 1}/{len(names)}")
     try:
