@@ -134,6 +134,19 @@ def test_stacked_in_order(env):
     assert check(env, "stacked", ["red", "green"], order="none") == [False, False]
 
 
+def test_stacked_needs_the_upper_over_the_lower(env):
+    """A block leaning against another's side touches it and sits higher, but is not stacked on it."""
+    tilt = math.radians(60)  # tipped about its bottom edge nearer the green block (x 0.575 .. 0.625) onto that block
+    hinge_x = 0.575 - 0.05 * math.sin(tilt) - 0.001
+    origin = (hinge_x - 0.025 * math.cos(tilt), 0.0, 0.025 * math.sin(tilt) + 0.001)  # the block's bottom face centre
+    put(env, "red", origin, (math.cos(tilt / 2), 0.0, math.sin(tilt / 2), 0.0))
+    settle(env, steps=30)
+    context = env.eval_context
+    assert check(env, "in_contact", ["red"], reference="green") == [True]
+    assert context.centre("red")[0, 2] > context.centre("green")[0, 2]
+    assert check(env, "stacked", ["green", "red"], order="bottom_to_top") == [False, False]
+
+
 @pytest.mark.parametrize(
     "offset, expected",
     [((0.0, 0.17), "left_of"), ((0.0, -0.17), "right_of"), ((0.13, 0.0), "behind"), ((-0.17, 0.0), "in_front_of")],

@@ -208,10 +208,11 @@ def stationary(ctx: EvalContext, objects: list[str], max_speed: float) -> torch.
     return _each(objects, lambda name: ctx.linear_speed(name) < max_speed)
 
 
-@predicate("stacked", group=True, order="none")
-def stacked(ctx: EvalContext, objects: list[str], order: str) -> torch.Tensor:
-    """The objects form one stack: each consecutive pair touches, the upper one higher. `order`: none (any order),
-    bottom_to_top (the list starts at the bottom) or top_to_bottom."""
+@predicate("stacked", group=True, order="none", margin=0.01)
+def stacked(ctx: EvalContext, objects: list[str], order: str, margin: float) -> torch.Tensor:
+    """The objects form one stack: each consecutive pair touches, and the upper one is above the lower: higher, with
+    its centre over the lower's footprint (widened by `margin` m), so one object leaning against another's side is
+    no stack. `order`: none (any order), bottom_to_top (the list starts at the bottom) or top_to_bottom."""
     if order not in STACK_ORDERS:
         raise ValueError(f"stacked: order must be one of {', '.join(STACK_ORDERS)}, got {order!r}")
     heights = torch.stack([ctx.centre(name)[:, 2] for name in objects], dim=1)  # (E, O)
@@ -237,7 +238,14 @@ def stacked(ctx: EvalContext, objects: list[str], order: str) -> torch.Tensor:
         sequence = (indices if order == "bottom_to_top" else indices.flip(0)).expand(ctx.num_envs, -1)
     lower, upper = sequence[:, :-1], sequence[:, 1:]
     rows = torch.arange(ctx.num_envs, device=ctx.device)[:, None]
-    holds = (touching[rows, lower, upper] & (heights.gather(1, upper) > heights.gather(1, lower))).all(dim=1)
+    centres = torch.stack([ctx.centre(name)[:, :2] for name in objects], dim=1)  # (E, O, 2)
+    bounds = [ctx.footprint(name) for name in objects]
+    low = torch.stack([bound[0] for bound in bounds], dim=1) - margin  # (E, O, 2)
+    high = torch.stack([bound[1] for bound in bounds], dim=1) + margin
+    upper_xy = centres[rows, upper]  # (E, O-1, 2)
+    over = ((upper_xy >= low[rows, lower]) & (upper_xy <= high[rows, lower])).all(dim=-1)
+    higher = heights.gather(1, upper) > heights.gather(1, lower)
+    holds = (touching[rows, lower, upper] & higher & over).all(dim=1)
     return _broadcast(holds, objects)
 
 

@@ -121,16 +121,16 @@ class OraclePolicy(Policy):
         return offset > self._held_offset + SLIP_DISTANCE
 
     def _check_job(self) -> bool:
-        """After a job's actions: whether its object satisfies the task's condition; if not, hold still once
-        (True: actions were queued) and then plan the job again. Group conditions (a stack, an order) hold only
+        """After a job's actions: whether its object satisfies the task's condition; if not, hold still once, the
+        gripper as the job left it (True: actions were queued), and then plan the job again. Group conditions (a stack, an order) hold only
         when every job is done, so their jobs are not checked."""
         job = self.job
         if job_done(self.env, job):
             self.job = None
             return False
-        if not self._job_settled:
+        if not self._job_settled:  # the hand keeps its grip: a lifted object may still be rising with the lagging arm
             self._job_settled = True
-            self.motion.hold(self.motion.current_qpos(), 0.0, JOB_SETTLE_STEPS)
+            self.motion.hold(self.motion.current_qpos(), self.motion.gripper, JOB_SETTLE_STEPS)
             return True
         self.job = None
         self._retry(job, first=True)  # with another grasp: the one that failed comes last (grasp_pose's `failed`)
