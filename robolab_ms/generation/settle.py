@@ -156,5 +156,6 @@ def relation_holds(context, relation: Relation, present: set[str]) -> bool:
         return predicate("in_container", [subject], container=reference)
     if relation.kind == "stacked":
         info = PREDICATES["stacked"]
-        return bool(info.function(context, list(relation.objects), order="bottom_to_top").all())
+        params = {**info.params, "order": "bottom_to_top"}
+        return bool(info.function(context, list(relation.objects), **params).all())
     raise ValueError(f"no check for relation kind {relation.kind!r}")

@@ -89,6 +89,9 @@ class MotionPlanner:
     """Plans the arm's moves for one robot and queues them as actions (`actions`), with the gripper command of
     the moment (`gripper`). Postures are planning-model joint vectors: the 7 arm joints, then the 2 fingers."""
 
+    time_each_move = False  # True: a chain's moves are timed as they are found, not once the whole chain is found
+    # (the baseline of benchmarks/validation_cost.py --oracle-baseline); the actions are the same either way
+
     def __init__(self, env: RoboLabEnv) -> None:
         self.planner = make_planner(env)
         self.robot = env.robot_uids
@@ -224,9 +227,17 @@ class MotionPlanner:
 
     # -------------------------------------------------------------------------------------------- paths
     def plan_straight(self, flange_pose: np.ndarray, qpos: np.ndarray) -> Plan:
-        """A timed joint path that moves the flange along a straight line (and the shortest turn) to `flange_pose`:
+        """A timed joint path that moves the flange along a straight line (and the shortest turn) to `flange_pose`
+        (`straight_waypoints`); fails on a joint limit, a jump or a collision."""
+        waypoints = self.straight_waypoints(flange_pose, qpos)
+        if waypoints is None:
+            return {"status": "straight move failed"}
+        return {"status": "Success", "position": self.timed(waypoints)}
+
+    def straight_waypoints(self, flange_pose: np.ndarray, qpos: np.ndarray) -> np.ndarray | None:
+        """The joint waypoints (N, 7) of a straight move of the flange (and the shortest turn) to `flange_pose`:
         inverse kinematics solved from the previous waypoint every STRAIGHT_STEP metres (or STRAIGHT_TURN radians),
-        so the path ends on the pose to within a millimetre; fails on a joint limit, a jump or a collision."""
+        so the path ends on the pose to within a millimetre; None on a joint limit, a jump or a collision."""
         from scipy.spatial.transform import Rotation, Slerp
 
         planner = self.planner
@@ -253,11 +264,16 @@ class MotionPlanner:
                 or np.abs(solution[:7] - current[:7]).max() > MAX_JOINT_JUMP
                 or self.collides(solution)
             ):
-                return {"status": "straight move failed"}
+                return None
             current = solution
             path.append(current[:7].copy())
-        _, position, *_ = planner.TOPP(np.asarray(path), self.time_step)
-        return {"status": "Success", "position": position}
+        return np.asarray(path)
+
+    def timed(self, waypoints: np.ndarray) -> np.ndarray:
+        """The joint positions at every control step along `waypoints` (N, 7), at the arm's speed and
+        acceleration limits (time-optimal parameterisation)."""
+        _, position, *_ = self.planner.TOPP(waypoints, self.time_step)
+        return position
 
     def plan_to_joints(self, goals: list[np.ndarray], qpos: np.ndarray) -> Plan:
         """A timed joint path to the first goal reachable by a straight line in joint space free of collisions; a
@@ -275,20 +291,27 @@ class MotionPlanner:
         return planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=SAMPLED_PLANNING_TIME)
 
     def straight_chain(self, qpos: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray] | None:
-        """Joint paths of consecutive straight moves through TCP `poses` from `qpos`, or None if one fails."""
-        paths, current = [], qpos.copy()
+        """Timed joint paths of consecutive straight moves through TCP `poses` from `qpos`, or None if one fails.
+        The moves are timed only once all of them are found (most chains tried are given up part of the way)."""
+        paths, timed, current = [], [], qpos.copy()
         for pose in poses:
-            result = self.plan_straight(self.flange_target(pose), current)
-            if result["status"] != "Success":  # at the edge of the workspace: within a centimetre of the pose
-                result = self.planner.plan_screw(self.flange_target(pose), current, time_step=self.time_step)
+            waypoints = self.straight_waypoints(self.flange_target(pose), current)
+            if waypoints is not None:
+                paths.append(self.timed(waypoints) if self.time_each_move else waypoints)
+                timed.append(self.time_each_move)
+                current[:7] = waypoints[-1]
+                continue
+            # at the edge of the workspace: within a centimetre of the pose
+            result = self.planner.plan_screw(self.flange_target(pose), current, time_step=self.time_step)
             if result["status"] != "Success":
                 return None
             position = np.asarray(result["position"])
             if len(position) == 0:  # the screw motion found the hand already there: a path that stays put
                 position = current[None, :7].copy()
             paths.append(position)
-            current[:7] = paths[-1][-1]
-        return paths
+            timed.append(True)
+            current[:7] = position[-1]
+        return [path if done else self.timed(path) for path, done in zip(paths, timed)]
 
     def free_joint_line(self, qpos: np.ndarray, goal: np.ndarray) -> np.ndarray | None:
         """A timed joint path along the straight line in joint space from `qpos` to `goal`, free of collisions once

@@ -563,10 +563,12 @@ def pivot_upright(
         at_grasp = qpos.copy()
         at_grasp[:7] = posture[:7]
         tip_paths = motion.straight_chain(at_grasp, tipping)
+        if tip_paths is None:
+            continue
         outside = shifted(grasp, (up if backing is None else backing) * RIM_APPROACH)
         high = raised(outside, APPROACH_HEIGHT) if backing is None else above(env, outside, APPROACH_HEIGHT, 0.0)
         back_out = motion.straight_chain(at_grasp, [outside, high])
-        if tip_paths is not None and back_out is not None:
+        if back_out is not None:
             break
     else:
         raise OracleFailure(f"cannot tip '{name}' up about its base: no arm posture allows the straight moves")
