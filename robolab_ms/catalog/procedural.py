@@ -448,12 +448,14 @@ def clamp(length: float = 0.16, jaw: float = 0.04) -> list[Part]:
     return parts
 
 
-def stick(length: float, radius: float, cap_length: float = 0.0) -> list[Part]:
-    """A pen, marker or similar rod lying on the table along x, with an optional cap in the second colour."""
+def stick(length: float, radius: float, cap_length: float = 0.0, cap_radius: float | None = None) -> list[Part]:
+    """A pen, marker or similar rod lying on the table along x, with an optional cap (or handle) in the second
+    colour, `cap_radius` thick (default a tenth wider than the rod); rod and cap both rest on the table."""
     body = length - cap_length
     parts = [Part("cylinder", (radius, body / 2), (-cap_length / 2, 0.0, radius))]
     if cap_length > 0:
-        parts.append(Part("cylinder", (radius * 1.1, cap_length / 2), (body / 2, 0.0, radius * 1.1), IDENTITY, 1))
+        cap = radius * 1.1 if cap_radius is None else cap_radius
+        parts.append(Part("cylinder", (cap, cap_length / 2), (body / 2, 0.0, cap), IDENTITY, 1))
     return parts
 
 
