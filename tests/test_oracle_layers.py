@@ -14,6 +14,7 @@ from robolab_ms.policies.oracle.grasps import (
     across_candidates,
     closing_directions,
     grasp_pose,
+    own_clash,
 )
 from robolab_ms.policies.oracle.gripper import MAX_GRASP_WIDTH, OPEN_FINGER_GAP, pad_drop
 from robolab_ms.policies.oracle.scoring import FINGER_CLASH_TOLERANCE, FINGER_SNAG, hand_clash
@@ -82,6 +83,22 @@ def test_a_grasp_near_one_that_failed_comes_last():
     again = best(candidates(points, failed=[failed]))
     assert not again.score.failed_nearby
     assert np.linalg.norm(again.xy - first.xy) > 0.02 or abs(float(again.closing @ first.closing)) < 0.9
+
+
+def test_a_finger_coming_down_on_the_object_itself_blocks_the_candidate():
+    """A stapler-like bar, 12 cm long and 3 cm wide: closed on along its length, the open fingers land on its top;
+    across it they pass down beside it."""
+    bar = box_points((0.12, 0.03, 0.04))
+    centre = np.zeros(2)
+    lengthwise = bar[np.abs(bar[:, 1]) < 0.015]  # the slab between the fingers' edges when closing along x
+    assert own_clash(lengthwise, centre, np.array([1.0, 0.0]), 0.025) == pytest.approx(0.04 - 0.025 + 0.01)
+    across = bar[np.abs(bar[:, 0]) < 0.015]
+    assert own_clash(across, centre, np.array([0.0, 1.0]), 0.025) == 0.0
+    found = candidates(bar)
+    chosen = best(found)
+    assert abs(float(chosen.closing @ [0.0, 1.0])) == pytest.approx(1.0) and chosen.score.blocked == 0.0
+    along = [c for c in found if abs(float(c.closing @ [1.0, 0.0])) > 0.99]
+    assert along and all(c.score.blocked > 0.0 for c in along)
 
 
 # ------------------------------------------------------------------------------------------------ on a scene
@@ -189,3 +206,21 @@ def test_the_pick_and_place_skill_puts_the_block_in_the_bin(motion):
     for _ in range(10):
         lab.step(hold)
     assert bool(lab.evaluate()["success"][0])
+
+
+def test_a_chain_of_straight_moves_is_the_same_timed_at_once_or_at_the_end(motion):
+    """`straight_chain` times its moves once all are found; timing each as it is found gives the same paths."""
+    from robolab_ms.policies.oracle.motion import MotionPlanner
+
+    grasp = grasp_pose(motion.env, "red")
+    poses = [raised(grasp, APPROACH_HEIGHT), raised(grasp, 0.05), grasp]
+    start = motion.current_qpos()
+    late = motion.straight_chain(start, poses)
+    MotionPlanner.time_each_move = True
+    try:
+        early = motion.straight_chain(start, poses)
+    finally:
+        MotionPlanner.time_each_move = False
+    assert late is not None and len(late) == len(poses)
+    assert all(np.array_equal(a, b) for a, b in zip(late, early, strict=True))
+    assert np.allclose(motion.tcp_at(np.concatenate([late[-1][-1], start[7:]]))[:3], grasp[:3], atol=2e-3)

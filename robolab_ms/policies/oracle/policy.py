@@ -40,8 +40,6 @@ TIPS = 3  # times an upside-down object is pushed over before its job gives up
 JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
 JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
 SLIP_DISTANCE = 0.05  # m the held object may move away from the hand (its grip settled) before it counts as slipped
-ARRIVAL_TOLERANCE = 0.01  # rad: the gripper closes once every arm joint is this near the posture it closes at ...
-ARRIVAL_STEPS = 15  # ... or after at most this many control steps of waiting for the lagging arm there
 
 
 class OraclePolicy(Policy):
@@ -72,7 +70,8 @@ class OraclePolicy(Policy):
             raise OracleFailure("the oracle reads the simulator: call bind(env) before reset()")
         seed_inverse_kinematics(seed)
         self.motion.sync_fixtures()
-        self.jobs: deque[Job] = deque(jobs_for(self.env))
+        self.compiled: list[Job] = jobs_for(self.env)  # every job of the task, to look over once all are done
+        self.jobs: deque[Job] = deque(self.compiled)
         self.motion.actions.clear()
         self.motion.gripper = 0.0
         self.job: Job | None = None  # the job whose actions are being replayed
@@ -81,8 +80,6 @@ class OraclePolicy(Policy):
         self.tips: dict[str, int] = {}  # per object: pushes that tipped it (or tried to) from upside down
         self.grasps: dict[str, list[np.ndarray]] = {}  # per object: the grasps its jobs were planned with
         self._closed_steps = 0  # actions replayed in a row with the gripper closed
-        self._gripper_sent = 0.0  # the gripper command of the last action sent
-        self._arrival_waits = 0  # steps waited so far for the arm to arrive where the gripper is to close
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
@@ -90,7 +87,7 @@ class OraclePolicy(Policy):
         while not motion.actions:
             if self.job is not None and self._check_job():
                 continue  # the hand holds still a moment before the job is checked again
-            if not self.jobs:  # everything done: hold still with the gripper open
+            if not self.jobs and not self._undone():  # everything done: hold still with the gripper open
                 return motion.action(motion.current_qpos(), 0.0)
             job = self.jobs.popleft()
             self.job, self._job_settled = job, False  # _plan_job may hand the check to a job it queues
@@ -103,10 +100,6 @@ class OraclePolicy(Policy):
                     raise
                 continue
         action = motion.actions.popleft()
-        if self._lagging(action):  # hold the posture with the gripper as it was; close on a later step
-            motion.actions.appendleft(action)
-            return np.concatenate([action[:7], [self._gripper_sent]]).astype(action.dtype)
-        self._gripper_sent = float(action[7])
         if self.job is not None and self._slipped(action):  # the rest of the job is moot: open, check, plan again
             motion.actions.clear()
             motion.hold(motion.current_qpos(), 0.0, GRIPPER_STEPS)
@@ -114,20 +107,6 @@ class OraclePolicy(Policy):
         return action
 
     # ------------------------------------------------------------------------------------------------ the loop
-    def _lagging(self, action: np.ndarray) -> bool:
-        """Whether `action` closes the open gripper while the arm, which lags behind its commands, is still on its
-        way to the posture the action holds (and has not yet waited ARRIVAL_STEPS for it): closed early, the
-        fingers take the object above the planned grasp, or not at all."""
-        if action[7] < 0.5 or self._gripper_sent >= 0.5:
-            self._arrival_waits = 0
-            return False
-        lag = float(np.abs(self.env.arm_qpos()[0].cpu().numpy() - action[:7]).max())
-        if lag <= ARRIVAL_TOLERANCE or self._arrival_waits >= ARRIVAL_STEPS:
-            self._arrival_waits = 0
-            return False
-        self._arrival_waits += 1
-        return True
-
     def _slipped(self, action: np.ndarray) -> bool:
         """Whether the object of the job being replayed has fallen away from the closed hand: once the grip has
         settled, its distance from the TCP grew by more than SLIP_DISTANCE."""
@@ -157,6 +136,12 @@ class OraclePolicy(Policy):
         self.job = None
         self._retry(job, first=True)  # with another grasp: the one that failed comes last (grasp_pose's `failed`)
         return False
+
+    def _undone(self) -> bool:
+        """Once the queue is empty: queue again (within their retries) the jobs whose object no longer satisfies the
+        task's condition (knocked out of a pot or over by a later job); whether any was queued."""
+        undone = [job for job in self.compiled if not job_done(self.env, job)]
+        return any([self._retry(job, first=False) for job in undone])
 
     def _retry(self, job: Job, first: bool) -> bool:
         """Queue `job` again, at the front of the jobs when `first` (planned next), else after the others, unless

@@ -1,0 +1,38 @@
+"""The oracle's closed loop over jobs (policies/oracle/policy.py), on whole episodes where it decides the outcome:
+after a lift job's moves the hand holds still keeping its grip (the arm lags its commands, so the drill is still
+rising when the moves run out), and once every job is done the jobs whose object was knocked out of place by a
+later one are planned again."""
+
+import json
+
+import pytest
+
+from robolab_ms.eval.runner import EvalConfig, run_evaluation
+from robolab_ms.policies import make_policy
+
+
+def _episode(tmp_path, task: str, seed: int):
+    config = EvalConfig(tasks=(task,), episodes=1, first_seed=seed)
+    results = run_evaluation(make_policy("oracle"), config, tmp_path, show_progress=False)
+    episodes = [json.loads(line) for line in (tmp_path / "episodes.jsonl").read_text().splitlines()]
+    return results[0], episodes[0]
+
+
+@pytest.mark.slow
+def test_a_lifted_drill_is_held_while_the_arm_catches_up(tmp_path):
+    """PickDrill seed 8: the moves of the lift end with the drill's lowest corner 3.0 cm up, not yet the 3 cm the
+    condition needs with margin; opened then, the hand dropped it and the episode ran out of time."""
+    result, episode = _episode(tmp_path, "PickDrill", 8)
+    assert result.error is None and result.success
+    assert not any(event["type"] == "target_dropped" for event in episode["events"])
+
+
+@pytest.mark.slow
+def test_a_ladle_knocked_out_of_the_pot_is_put_back(tmp_path):
+    """GreenSpoonsInPot seed 4: the first ladle is in the pot when its job is checked, and the next one knocks it
+    over; once the queue is empty its job is planned again and the ladle let go in the pot a second time (without
+    that, the episode ran out of time)."""
+    result, episode = _episode(tmp_path, "GreenSpoonsInPot", 4)
+    assert result.error is None and result.success
+    ladle = [event["type"] for event in episode["events"] if event["object"] == "ladle"]
+    assert "object_tipped_over" in ladle and ladle.count("target_dropped") >= 2
