@@ -14,7 +14,6 @@ from robolab_ms.policies.oracle.grasps import (
     across_candidates,
     closing_directions,
     grasp_pose,
-    own_clash,
 )
 from robolab_ms.policies.oracle.gripper import MAX_GRASP_WIDTH, OPEN_FINGER_GAP, pad_drop
 from robolab_ms.policies.oracle.scoring import FINGER_CLASH_TOLERANCE, FINGER_SNAG, hand_clash
@@ -83,22 +82,6 @@ def test_a_grasp_near_one_that_failed_comes_last():
     again = best(candidates(points, failed=[failed]))
     assert not again.score.failed_nearby
     assert np.linalg.norm(again.xy - first.xy) > 0.02 or abs(float(again.closing @ first.closing)) < 0.9
-
-
-def test_a_finger_coming_down_on_the_object_itself_blocks_the_candidate():
-    """A stapler-like bar, 12 cm long and 3 cm wide: closed on along its length, the open fingers land on its top;
-    across it they pass down beside it."""
-    bar = box_points((0.12, 0.03, 0.04))
-    centre = np.zeros(2)
-    lengthwise = bar[np.abs(bar[:, 1]) < 0.015]  # the slab between the fingers' edges when closing along x
-    assert own_clash(lengthwise, centre, np.array([1.0, 0.0]), 0.025) == pytest.approx(0.04 - 0.025 + 0.01)
-    across = bar[np.abs(bar[:, 0]) < 0.015]
-    assert own_clash(across, centre, np.array([0.0, 1.0]), 0.025) == 0.0
-    found = candidates(bar)
-    chosen = best(found)
-    assert abs(float(chosen.closing @ [0.0, 1.0])) == pytest.approx(1.0) and chosen.score.blocked == 0.0
-    along = [c for c in found if abs(float(c.closing @ [1.0, 0.0])) > 0.99]
-    assert along and all(c.score.blocked > 0.0 for c in along)
 
 
 # ------------------------------------------------------------------------------------------------ on a scene

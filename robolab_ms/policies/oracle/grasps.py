@@ -30,7 +30,6 @@ from robolab_ms.policies.oracle.geometry import down_quaternion, quat_to_matrix,
 from robolab_ms.policies.oracle.gripper import (
     FINGER_HALF_WIDTH,
     FINGER_TOP,
-    FINGERTIP_BELOW_TCP,
     HAND_MARGIN,
     HAND_PARTS,
     MAX_GRASP_WIDTH,
@@ -198,16 +197,6 @@ def too_wide(points: np.ndarray, closing: np.ndarray, z: float) -> bool:
     return float(np.ptp(near[:, :2] @ (closing / np.linalg.norm(closing)))) > OPEN_FINGER_GAP
 
 
-def own_clash(slab: np.ndarray, xy: np.ndarray, closing: np.ndarray, z: float) -> float:
-    """How far (m) the object itself rises into the way of an open finger coming down to a grasp at (xy, z): its
-    `slab` (the points between the fingers' edges) at or beyond an open finger's pad, above the fingertips. The hand
-    cannot push its own object aside: a finger landing on it stops the hand above the grasp."""
-    beyond = np.abs((slab[:, :2] - xy) @ (closing / np.linalg.norm(closing))) >= OPEN_FINGER_GAP / 2
-    if not beyond.any():
-        return 0.0
-    return max(float(slab[beyond, 2].max()) - (z - FINGERTIP_BELOW_TCP), 0.0)
-
-
 def snug(env: RoboLabEnv, name: str, grasp: np.ndarray) -> bool:
     """Whether the object, at the height of top-down `grasp`, is within SNUG_MARGIN as wide along the closing
     direction as the open fingers' gap (the opened pads still touch it)."""
@@ -327,7 +316,6 @@ def across_candidates(
                 slab = points
             z, width = grasp_height(slab, direction, bottom)
             fingers, body = hand_clash(heights, xy, direction, z)
-            own = own_clash(slab, xy, direction, z)
             if fingers > FINGER_CLASH_TOLERANCE and side_step(env, name, xy, direction, z, heights) is not None:
                 fingers = 0.0  # an overhang the hand comes in under from the side
             if tool and fingers > FINGER_CLASH_TOLERANCE:  # its widest part walled in (a drill's battery in a bin)
@@ -342,7 +330,7 @@ def across_candidates(
                 snag = not long and (fingers > FINGER_SNAG or width > MAX_GRASP_WIDTH)
             score = GraspScore(
                 failed_nearby=near_failed(xy, direction, failed),
-                blocked=blocked(fingers, body) + own,
+                blocked=blocked(fingers, body),
                 snag=snag,
                 moved=shift != 0.0 or turn_rank > 0,
                 cost=grasp_cost(shift, turn_rank, fingers, body, width),
