@@ -123,8 +123,8 @@ class OraclePolicy(Policy):
 
     def _check_job(self) -> bool:
         """After a job's actions: whether its object satisfies the task's condition; if not, hold still once, the
-        gripper as the job left it (True: actions were queued), and then plan the job again. Group conditions (a stack, an order) hold only
-        when every job is done, so their jobs are not checked."""
+        gripper as the job left it (True: actions were queued), and then plan the job again. Group conditions (a
+        stack, an order) hold only when every job is done, so their jobs are not checked."""
         job = self.job
         if job_done(self.env, job):
             self.job = None
@@ -141,7 +141,8 @@ class OraclePolicy(Policy):
         """Once the queue is empty: queue again (within their retries) the jobs whose object no longer satisfies the
         task's condition (knocked out of a pot or over by a later job); whether any was queued."""
         undone = [job for job in self.compiled if not job_done(self.env, job)]
-        return any([self._retry(job, first=False) for job in undone])
+        queued = [job for job in undone if self._retry(job, first=False)]
+        return bool(queued)
 
     def _retry(self, job: Job, first: bool) -> bool:
         """Queue `job` again, at the front of the jobs when `first` (planned next), else after the others, unless
