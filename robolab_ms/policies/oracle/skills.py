@@ -81,6 +81,7 @@ SLIDE_OFF = 0.012  # m the hand moves along the closing direction after letting 
 STEP_SETTLE_STEPS = 12  # control steps held before a descent of millimetres, for the arm to catch up
 STEP_LIFT = 0.01  # m the held object is raised off the table before the hand moves back out sideways
 PIVOT_STEPS = 6  # straight moves that tip a lying object up about its base
+PIVOT_HOLD_STEPS = 15  # control steps the hand keeps its grip at the end of a tip, for the lagging arm to finish it
 RIM_APPROACH = 0.06  # m outside a lying container's opening from where the hand moves straight in to the rim
 BASE_BAND = 0.01  # m above the lowest point along a lying object's axis that counts as its base
 FRONT_PLACE_RISE = 0.02  # m above the release that an object is slid in over a high shelf from the front ...
@@ -579,13 +580,16 @@ def pivot_upright(
     if result["status"] != "Success":
         raise OracleFailure(f"cannot reach the opening of '{name}': no motion plan ({result['status']})")
     motion.queue(qpos, result["position"])
-    way_in = np.concatenate([back_out[1][::-1], back_out[0][::-1][1:], [posture[:7]]])
-    motion.queue(above_outside, way_in)
+    outside_posture = motion.queue(above_outside, back_out[1][::-1])
+    if backing is None:  # level into an opening: a lagging arm that cut the corner would come down on the rim
+        motion.hold(outside_posture, 0.0, STEP_SETTLE_STEPS)
+    motion.queue(outside_posture, np.concatenate([back_out[0][::-1][1:], [posture[:7]]]))
     motion.hold(at_grasp, 1.0, GRIPPER_STEPS)
     for path in tip_paths:
         motion.queue(at_grasp, path)
     final = at_grasp.copy()
     final[:7] = tip_paths[-1][-1]
+    motion.hold(final, 1.0, PIVOT_HOLD_STEPS)  # let go only once the object has turned all the way
     motion.hold(final, 0.0, GRIPPER_STEPS)
     try:  # the object stands and is let go: lifting the hand away is a courtesy, not a must
         motion.move(final, raised(tipping[-1], APPROACH_HEIGHT), f"lift the hand out of '{name}'")
