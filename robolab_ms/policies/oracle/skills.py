@@ -78,7 +78,8 @@ if TYPE_CHECKING:
 
 BACK_OFF = 0.06  # m the hand backs away (and rises) after setting an object down upright
 SLIDE_OFF = 0.012  # m the hand moves along the closing direction after letting go of an object as wide as the fingers
-STEP_SETTLE_STEPS = 12  # control steps held before a descent of millimetres, for the arm to catch up
+STEP_SETTLE_STEPS = 12  # control steps held for the lagging arm to catch up before a move that must start where
+# planned: a descent of millimetres, a straight move into a lying container's opening
 STEP_LIFT = 0.01  # m the held object is raised off the table before the hand moves back out sideways
 PIVOT_STEPS = 6  # straight moves that tip a lying object up about its base
 PIVOT_HOLD_STEPS = 15  # control steps the hand keeps its grip at the end of a tip, for the lagging arm to finish it
