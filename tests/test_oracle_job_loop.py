@@ -36,3 +36,43 @@ def test_a_ladle_knocked_out_of_the_pot_is_put_back(tmp_path):
     assert result.error is None and result.success
     ladle = [event["type"] for event in episode["events"] if event["object"] == "ladle"]
     assert "object_tipped_over" in ladle and ladle.count("target_dropped") >= 2
+
+
+def test_a_job_given_up_hands_over_to_a_spare_object():
+    """PutTwoMugsOnShelf asks for any two of three mugs: once the second mug's job has failed on every retry, the
+    oracle moves the third mug in its place (and looks over it, not the given-up one, at the end); a task that
+    needs every one of its objects has no spare and the failure ends the episode."""
+    from robolab_ms.envs import RoboLabEnv
+    from robolab_ms.policies.oracle import OracleFailure, OraclePolicy
+    from robolab_ms.policies.oracle.policy import JOB_RETRIES
+
+    env = RoboLabEnv(task="PutTwoMugsOnShelf", obs_mode="state_dict", render_backend="cpu")
+    try:
+        env.reset(seed=0)
+        oracle = OraclePolicy()
+        oracle.bind(env)
+        oracle.reset("", env.action_space, seed=0)
+        assert [job.obj for job in oracle.compiled] == ["ceramic_mug", "mug"]
+        planned = []
+
+        def plan(job):  # the white mug's job never plans; the others queue one still step
+            planned.append(job.obj)
+            if job.obj == "mug":
+                raise OracleFailure("no motion plan")
+            oracle.job = None
+            oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
+
+        oracle._plan_job = plan
+        oracle.act({})
+        oracle.act({})
+        assert planned == ["ceramic_mug"] + ["mug"] * (JOB_RETRIES + 1) + ["mug_01"]
+        assert [job.obj for job in oracle.compiled] == ["ceramic_mug", "mug_01"]
+
+        oracle.reset("", env.action_space, seed=0)
+        oracle.spares.clear()  # as for a task that needs all of its objects
+        planned.clear()
+        oracle.act({})
+        with pytest.raises(OracleFailure):
+            oracle.act({})
+    finally:
+        env.close()

@@ -207,3 +207,35 @@ def test_a_chain_of_straight_moves_is_the_same_timed_at_once_or_at_the_end(motio
     assert late is not None and len(late) == len(poses)
     assert all(np.array_equal(a, b) for a, b in zip(late, early, strict=True))
     assert np.allclose(motion.tcp_at(np.concatenate([late[-1][-1], start[7:]]))[:3], grasp[:3], atol=2e-3)
+
+
+def test_a_carried_object_is_kept_clear_of_a_shelf_post():
+    """Over a post of the wire shelf, with the hand clear of it, a mug hanging below the fingers would hit it: the
+    posture collides while the planner carries the mug (`carrying`), and not before or after. The post is narrower
+    than the mug: it passes between the mug's corners, so the check is of boxes, not of points."""
+    from robolab_ms.envs import RoboLabEnv
+    from robolab_ms.policies.oracle.motion import MotionPlanner, seed_inverse_kinematics
+    from robolab_ms.policies.oracle.world import fixture_boxes
+
+    env = RoboLabEnv(task="PutTwoMugsOnShelf", obs_mode="state_dict", render_backend="cpu")
+    try:
+        env.reset(seed=0)
+        seed_inverse_kinematics(0)
+        planner = MotionPlanner(env)
+        planner.bind(env)
+        planner.sync_fixtures()
+        _, centre, half = min(fixture_boxes(env), key=lambda box: float(np.linalg.norm(box[1][:2])))  # nearest post
+        top = centre[2] + half[2]
+        over_post = np.concatenate([[centre[0], centre[1], top + 0.06], down_quaternion(np.array([0.0, 1.0]))])
+        start = planner.current_qpos()
+        status, postures = planner.ik(over_post, start)
+        assert status == "Success"
+        posture = start.copy()
+        posture[:7] = postures[0][:7]
+        mug = np.array([[x, y, z] for x in (-0.04, 0.04) for y in (-0.04, 0.04) for z in (0.0, 0.1)])  # below the TCP
+        assert not planner.collides(posture)
+        with planner.carrying(mug):
+            assert planner.collides(posture)
+        assert not planner.collides(posture)
+    finally:
+        env.close()

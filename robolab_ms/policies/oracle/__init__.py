@@ -18,8 +18,8 @@ only job is to prove tasks solvable. Its layers, each importing only those liste
 - `policy`: `OraclePolicy`, the closed loop over the jobs.
 """
 
-from robolab_ms.policies.oracle.compile import SOLVABLE_PREDICATES, Job, job_done, jobs_for
+from robolab_ms.policies.oracle.compile import SOLVABLE_PREDICATES, Job, job_done, jobs_for, spare_jobs
 from robolab_ms.policies.oracle.failure import OracleFailure
 from robolab_ms.policies.oracle.policy import OraclePolicy
 
-__all__ = ["SOLVABLE_PREDICATES", "Job", "OracleFailure", "OraclePolicy", "job_done", "jobs_for"]
+__all__ = ["SOLVABLE_PREDICATES", "Job", "OracleFailure", "OraclePolicy", "job_done", "jobs_for", "spare_jobs"]

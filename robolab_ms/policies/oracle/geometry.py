@@ -94,6 +94,28 @@ def down_quaternion(closing_direction: np.ndarray, keep_sign: bool = False) -> n
     return matrix_to_quaternion(np.stack([x, y, z], axis=1))
 
 
+def in_frame(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """World `points` (N, 3) in the frame of `pose` [x, y, z, qw, qx, qy, qz]."""
+    return (points - pose[:3]) @ quat_to_matrix(pose[3:])
+
+
+def boxes_overlap(first: Box, second: Box, margin: float) -> bool:
+    """Whether two boxes come within `margin` of each other (the first grown by it on every side): no axis of
+    either, nor a cross product of one axis of each, separates them."""
+    (rotation_a, centre_a, half_a), (rotation_b, centre_b, half_b) = first, second
+    half_a = half_a + margin
+    axes = [*rotation_a.T, *rotation_b.T]
+    axes += [np.cross(u, v) for u in rotation_a.T for v in rotation_b.T]
+    between = centre_b - centre_a
+    for axis in axes:
+        if float(axis @ axis) < 1e-12:  # parallel edges: covered by the boxes' own axes
+            continue
+        reach = np.abs(rotation_a.T @ axis) @ half_a + np.abs(rotation_b.T @ axis) @ half_b
+        if abs(float(between @ axis)) > reach:
+            return False
+    return True
+
+
 def inside_boxes(points: np.ndarray, boxes: list[Box], margin: float) -> bool:
     """Whether any of the world `points` (N, 3) lies within `margin` of one of the `boxes`."""
     return any(

@@ -29,7 +29,7 @@ from robolab_ms.policies.oracle.clearance import (
     sag_height,
 )
 from robolab_ms.policies.oracle.failure import OracleFailure
-from robolab_ms.policies.oracle.geometry import matrix_to_quaternion
+from robolab_ms.policies.oracle.geometry import boxes_overlap, matrix_to_quaternion, quat_to_matrix
 from robolab_ms.policies.oracle.gripper import FINGERTIP_BELOW_TCP, hand_clear
 from robolab_ms.policies.oracle.world import fixture_boxes, world_points
 
@@ -45,6 +45,7 @@ JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-
 STRAIGHT_STEP = 0.01  # m between the waypoints of a straight move, each solved by inverse kinematics ...
 STRAIGHT_TURN = 0.05  # ... or rad of turn between them
 MAX_JOINT_JUMP = 0.25  # rad a joint may change between two waypoints of a straight move (more: a flip, not a line)
+HELD_FIXTURE_MARGIN = 0.015  # m kept between a carried object and a fixture (it swings a little in the fingers)
 SAMPLED_PLANNING_TIME = 2.0  # s RRT-Connect may take where no straight line in joint space is free
 OPEN_FINGER_QPOS = 0.04  # the planning model's finger joints, kept open
 PLANNER_HAND_LINKS = ("panda_hand", "panda_leftfinger", "panda_rightfinger", "panda_hand_tcp")  # the planner's
@@ -101,6 +102,8 @@ class MotionPlanner:
         self.fixture_names: list[str] = []
         self._fixture_box_cache: tuple | None = None
         self.tcp_in_flange = None
+        self.held: tuple[np.ndarray, np.ndarray] | None = None  # the carried object's box in the TCP frame (middle,
+        # half extents), while `carrying`
 
     def bind(self, env: RoboLabEnv) -> None:
         """Plan for `env` (the unwrapped RoboLabEnv): read the fixed transform from the flange to the TCP."""
@@ -209,6 +212,21 @@ class MotionPlanner:
         finally:
             install(0.0)
 
+    @contextmanager
+    def carrying(self, points: np.ndarray) -> Iterator[None]:
+        """For the duration, the moves planned keep the held object's box (the bounding box of `points`, (N, 3) in
+        the TCP frame) HELD_FIXTURE_MARGIN clear of the fixtures, as well as the arm."""
+        import sapien
+
+        low, high = points.min(axis=0), points.max(axis=0)
+        box = self.tcp_in_flange * sapien.Pose(p=(low + high) / 2)
+        self.planner.update_attached_box(high - low + 2 * HELD_FIXTURE_MARGIN, np.concatenate([box.p, box.q]))
+        self.held = ((low + high) / 2, (high - low) / 2)
+        try:
+            yield
+        finally:
+            self.held = None
+
     def collides(self, qpos: np.ndarray) -> bool:
         """Whether the arm at planning-model joints `qpos` collides with itself or a fixture."""
         if self.planner.check_for_self_collision(qpos=qpos):
@@ -217,13 +235,20 @@ class MotionPlanner:
 
     def arm_hits_fixture(self, qpos: np.ndarray) -> bool:
         """Whether the arm at planning-model joints `qpos` hits a fixture: its links from the flange back as the
-        planner models them, the hand as the real gripper's solids at the TCP (`gripper.hand_clear`)."""
+        planner models them, the hand as the real gripper's solids at the TCP (`gripper.hand_clear`), and the
+        object it carries (`carrying`)."""
         if any(hit.link_name1 not in PLANNER_HAND_LINKS for hit in self.planner.check_for_env_collision(qpos=qpos)):
             return True
         boxes = self._fixture_box_cache
         if boxes is None or boxes[0] is not self.env or boxes[1] != self.fixture_names:
             self._fixture_box_cache = boxes = (self.env, list(self.fixture_names), fixture_boxes(self.env))
-        return not hand_clear(self.tcp_at(qpos), boxes[2])
+        tcp = self.tcp_at(qpos)
+        if self.held is not None:
+            rotation, (middle, half) = quat_to_matrix(tcp[3:]), self.held
+            held = (rotation, tcp[:3] + rotation @ middle, half)
+            if any(boxes_overlap(held, box, HELD_FIXTURE_MARGIN) for box in boxes[2]):
+                return True
+        return not hand_clear(tcp, boxes[2])
 
     # -------------------------------------------------------------------------------------------- paths
     def plan_straight(self, flange_pose: np.ndarray, qpos: np.ndarray) -> Plan:
@@ -288,7 +313,9 @@ class MotionPlanner:
                 return {"status": "Success", "position": path[-1:, :7]}
             _, position, *_ = planner.TOPP(path[:, :7], step)
             return {"status": "Success", "position": position}
-        return planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=SAMPLED_PLANNING_TIME)
+        return planner.plan_qpos_to_qpos(
+            goals, qpos, time_step=step, planning_time=SAMPLED_PLANNING_TIME, use_attach=self.held is not None
+        )
 
     def straight_chain(self, qpos: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray] | None:
         """Timed joint paths of consecutive straight moves through TCP `poses` from `qpos`, or None if one fails.

@@ -5,7 +5,8 @@ for, and replays the queued actions. A held object that falls away from the clos
 once; when a job's moves are over it checks the task's condition for that object, and a job that did not get
 there (the object slipped, tipped or was never held) is planned again from the new state, up to JOB_RETRIES times,
 with a different grasp first. A job that cannot be planned at all goes after the others once, since moving them
-may free its way. When it cannot go on it raises OracleFailure saying why.
+may free its way. Where the condition asks for only some of its objects, a job given up hands over to a spare one
+on another of them. When it cannot go on it raises OracleFailure saying why.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 from gymnasium import spaces
 
 from robolab_ms.policies import Policy
-from robolab_ms.policies.oracle.compile import Job, job_done, jobs_for
+from robolab_ms.policies.oracle.compile import Job, job_done, jobs_for, spare_jobs
 from robolab_ms.policies.oracle.failure import OracleFailure
 from robolab_ms.policies.oracle.grasps import grasp_pose
 from robolab_ms.policies.oracle.motion import GRIPPER_STEPS, SETTLE_STEPS, MotionPlanner, seed_inverse_kinematics
@@ -72,6 +73,7 @@ class OraclePolicy(Policy):
         self.motion.sync_fixtures()
         self.compiled: list[Job] = jobs_for(self.env)  # every job of the task, to look over once all are done
         self.jobs: deque[Job] = deque(self.compiled)
+        self.spares: deque[Job] = deque(spare_jobs(self.env))  # for a job given up (any one or any k of objects)
         self.motion.actions.clear()
         self.motion.gripper = 0.0
         self.job: Job | None = None  # the job whose actions are being replayed
@@ -146,15 +148,31 @@ class OraclePolicy(Policy):
 
     def _retry(self, job: Job, first: bool) -> bool:
         """Queue `job` again, at the front of the jobs when `first` (planned next), else after the others, unless
-        its object has used up its retries; whether it was queued."""
+        its object has used up its retries; then, where the condition asks for only some of its objects, queue a
+        spare job in its place (on another of them) instead. Whether a job was queued."""
         used = self.retries.get(job.obj, 0)
         if used >= JOB_RETRIES:
-            return False
+            return self._replace(job, first)
         self.retries[job.obj] = used + 1
         if first:
             self.jobs.appendleft(job)
         else:
             self.jobs.append(job)
+        return True
+
+    def _replace(self, job: Job, first: bool) -> bool:
+        """Give `job` up for the next spare job (where the condition asks for only some of its objects), queued
+        where `_retry` would queue `job` unless its object already satisfies the condition; whether there was one."""
+        if not self.spares:
+            return False
+        spare = self.spares.popleft()
+        self.compiled = [spare if compiled.obj == job.obj else compiled for compiled in self.compiled]
+        if job_done(self.env, spare):
+            return True
+        if first:
+            self.jobs.appendleft(spare)
+        else:
+            self.jobs.append(spare)
         return True
 
     # ------------------------------------------------------------------------------------------------ the skills

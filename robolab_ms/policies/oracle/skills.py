@@ -26,6 +26,7 @@ from robolab_ms.policies.oracle.clearance import APPROACH_HEIGHT, LIFT_HEIGHT, a
 from robolab_ms.policies.oracle.failure import OracleFailure
 from robolab_ms.policies.oracle.geometry import (
     down_quaternion,
+    in_frame,
     matrix_to_quaternion,
     quat_to_matrix,
     raised,
@@ -174,9 +175,10 @@ def pick_and_place(
     qpos = motion.move(qpos, lifted if carry is None else carry[0], f"lift '{name}'")
     where = _where(onto, at)
     try:
-        if carry is not None:  # over something tall on the way, at one height, then down to the pose over the place
-            qpos = motion.move(qpos, carry[1], f"carry '{name}' high over {where}")
-        qpos = motion.move(qpos, above_place, f"carry '{name}' over {where}", straight=False)
+        with motion.carrying(in_frame(world_points(env, name), grasp)):  # kept clear of a shelf's posts
+            if carry is not None:  # over something tall on the way, at one height, then down over the place
+                qpos = motion.move(qpos, carry[1], f"carry '{name}' high over {where}")
+            qpos = motion.move(qpos, above_place, f"carry '{name}' over {where}", straight=False)
     except OracleFailure:  # too high above a shelf: in from the front, if there is a way
         way = front_place_way(motion, name, grasp, place)
         if way is None:
