@@ -216,11 +216,7 @@ class MotionPlanner:
     def carrying(self, points: np.ndarray) -> Iterator[None]:
         """For the duration, the moves planned keep the held object's box (the bounding box of `points`, (N, 3) in
         the TCP frame) HELD_FIXTURE_MARGIN clear of the fixtures, as well as the arm."""
-        import sapien
-
         low, high = points.min(axis=0), points.max(axis=0)
-        box = self.tcp_in_flange * sapien.Pose(p=(low + high) / 2)
-        self.planner.update_attached_box(high - low + 2 * HELD_FIXTURE_MARGIN, np.concatenate([box.p, box.q]))
         self.held = ((low + high) / 2, (high - low) / 2)
         try:
             yield
@@ -313,9 +309,14 @@ class MotionPlanner:
                 return {"status": "Success", "position": path[-1:, :7]}
             _, position, *_ = planner.TOPP(path[:, :7], step)
             return {"status": "Success", "position": position}
-        return planner.plan_qpos_to_qpos(
-            goals, qpos, time_step=step, planning_time=SAMPLED_PLANNING_TIME, use_attach=self.held is not None
-        )
+        result = planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=SAMPLED_PLANNING_TIME)
+        if result["status"] == "Success" and self.held is not None:  # the sampled planner knows nothing of it
+            posture = qpos.copy()
+            for joints in result["position"]:
+                posture[:7] = joints
+                if self.collides(posture):
+                    return {"status": "the sampled path takes the held object into a fixture"}
+        return result
 
     def straight_chain(self, qpos: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray] | None:
         """Timed joint paths of consecutive straight moves through TCP `poses` from `qpos`, or None if one fails.

@@ -178,7 +178,9 @@ def pick_and_place(
         with motion.carrying(in_frame(world_points(env, name), grasp)):  # kept clear of a shelf's posts
             if carry is not None:  # over something tall on the way, at one height, then down over the place
                 qpos = motion.move(qpos, carry[1], f"carry '{name}' high over {where}")
-            qpos = motion.move(qpos, above_place, f"carry '{name}' over {where}", straight=False)
+                qpos = motion.move(qpos, above_place, f"carry '{name}' over {where}", straight=False)
+            else:
+                qpos = carry_over(motion, qpos, lifted, above_place, f"carry '{name}' over {where}")
     except OracleFailure:  # too high above a shelf: in from the front, if there is a way
         way = front_place_way(motion, name, grasp, place)
         if way is None:
@@ -190,6 +192,28 @@ def pick_and_place(
     if wide_as_fingers:
         qpos = slide_off(motion, qpos, place, onto)
     motion.move(qpos, above_place, f"retreat from {where}")
+
+
+def carry_over(
+    motion: MotionPlanner, qpos: np.ndarray, lifted: np.ndarray, above_place: np.ndarray, what: str
+) -> np.ndarray:
+    """Queue the carry from the TCP pose `lifted` (the arm there, at posture `qpos`) to `above_place` on a joint
+    path; where none keeps the held object clear of the fixtures and the place is higher, straight up to its height
+    first and across from there. Returns the final joints."""
+    try:
+        return motion.move(qpos, above_place, what, straight=False)
+    except OracleFailure:
+        if above_place[2] <= lifted[2]:
+            raise
+    planned = motion.mark()
+    risen = lifted.copy()
+    risen[2] = above_place[2]
+    try:
+        qpos = motion.move(qpos, risen, f"{what}: rise to its height first")
+        return motion.move(qpos, above_place, what, straight=False)
+    except OracleFailure:
+        motion.rewind(planned)
+        raise
 
 
 def release_spot(
