@@ -241,3 +241,47 @@ def test_a_carried_object_is_kept_clear_of_a_shelf_post():
         assert planner.ik(over_post, start)[0] == "Success"  # the mug's box is left out of the checks again
     finally:
         env.close()
+
+
+class _Moves:
+    """A stand-in for MotionPlanner's queue that refuses the joint path straight to `refused` poses and records
+    the poses moved to."""
+
+    def __init__(self, refused: list[np.ndarray]) -> None:
+        self.refused, self.moved = refused, []
+
+    def mark(self) -> int:
+        return len(self.moved)
+
+    def rewind(self, mark: int) -> None:
+        del self.moved[mark:]
+
+    def move(self, qpos, pose, what, straight=True):
+        from robolab_ms.policies.oracle.failure import OracleFailure
+
+        if not straight and any(np.array_equal(pose, refused) for refused in self.refused) and not self.moved:
+            raise OracleFailure(f"cannot {what}")
+        self.moved.append(pose.copy())
+        return qpos
+
+
+def test_a_carry_refused_on_the_way_rises_to_the_place_height_first():
+    """Where no joint path from the lifted pose to the pose over the place keeps the held object clear, the carry
+    goes straight up to that pose's height and across from there; a place lower than the lifted pose has no such
+    way round and the failure stands."""
+    from robolab_ms.policies.oracle.failure import OracleFailure
+    from robolab_ms.policies.oracle.skills import carry_over
+
+    down = down_quaternion(np.array([0.0, 1.0]))
+    lifted = np.concatenate([[0.6, -0.15, 0.2], down])
+    over_shelf = np.concatenate([[0.4, 0.3, 0.6], down])
+    moves = _Moves(refused=[over_shelf])
+    carry_over(moves, np.zeros(9), lifted, over_shelf, "carry the mug")
+    assert len(moves.moved) == 2
+    assert np.allclose(moves.moved[0][:3], [0.6, -0.15, 0.6]) and np.array_equal(moves.moved[1], over_shelf)
+
+    below = np.concatenate([[0.4, 0.3, 0.1], down])
+    moves = _Moves(refused=[below])
+    with pytest.raises(OracleFailure):
+        carry_over(moves, np.zeros(9), lifted, below, "carry the mug")
+    assert moves.moved == []
