@@ -68,11 +68,6 @@ class Judge(Protocol):
     def judge(self, instruction: str, spec: TaskSpec) -> Judgement: ...
 
 
-def required_count(condition: Condition) -> int:
-    """How many of its objects a condition needs: all of them, one (`any`) or k (`choose`)."""
-    return {"all": len(condition.objects), "any": 1, "choose": condition.k}[condition.logical]
-
-
 def condition_place(condition: Condition) -> list[str]:
     """The objects a condition puts things into, onto or beside: its reference values, or its groups' containers."""
     if "groups" in condition.params:
@@ -188,7 +183,7 @@ class RulesJudge:
         out_of = [vocabulary.objects[p] for p in places if p in vocabulary.objects] if main.kind == "out" else []
         if mentions and not problems:
             wanted = self._wanted(mentions, actions, vocabulary, out_of)
-            needed = required_count(condition) - (1 if condition.predicate == "stacked" and reference_names else 0)
+            needed = condition.required_count - (1 if condition.predicate == "stacked" and reference_names else 0)
             if wanted != needed:
                 problems.append(
                     f"the instruction asks for {wanted} object(s), the condition needs {needed} "

@@ -19,3 +19,8 @@ class Condition:
     require_gripper_detached: bool = False
     params: dict[str, Any] = field(default_factory=dict)
     require_picked_up: bool = False  # the object was picked up at some step (latched): not knocked into place
+
+    @property
+    def required_count(self) -> int:
+        """How many of its objects must satisfy it: all of them, one (`any`) or k (`choose`)."""
+        return {"all": len(self.objects), "any": 1, "choose": self.k}[self.logical]

@@ -43,26 +43,15 @@ SOLVABLE_PREDICATES = ("in_container", "enclosed", "on_top", "on_center", "place
 def jobs_for(env: RoboLabEnv) -> list[Job]:
     """The pick-and-place jobs that satisfy the task's first success condition."""
     condition = env.task_spec.success[0]
-    return jobs_moving(env, list(condition.objects)[: needed_count(env)])
+    return jobs_moving(env, list(condition.objects)[: condition.required_count])
 
 
 def spare_jobs(env: RoboLabEnv) -> list[Job]:
     """Where the task's first success condition asks for any one or any k of its objects: a job for each object
     that `jobs_for` leaves out, to take the place of a job that cannot be done; else none."""
     condition = env.task_spec.success[0]
-    spares = list(condition.objects)[needed_count(env) :]
+    spares = list(condition.objects)[condition.required_count :]
     return [job for name in spares for job in jobs_moving(env, [name])]
-
-
-def needed_count(env: RoboLabEnv) -> int:
-    """How many of the first success condition's objects must satisfy it: one for `any`, k for `choose`, else
-    all."""
-    condition = env.task_spec.success[0]
-    if condition.logical == "any":
-        return 1
-    if condition.logical == "choose":
-        return condition.k
-    return len(condition.objects)
 
 
 def jobs_moving(env: RoboLabEnv, objects: list[str]) -> list[Job]:
