@@ -76,3 +76,35 @@ def test_a_job_given_up_hands_over_to_a_spare_object():
             oracle.act({})
     finally:
         env.close()
+
+
+def test_the_oracle_gives_up_once_every_retry_is_used_instead_of_running_out_the_time():
+    """A job whose plan leaves its object where it was is planned again JOB_RETRIES times; then the oracle holds
+    still GIVE_UP_STEPS (the object may still settle where it belongs) and raises OracleFailure naming the object,
+    so a hopeless episode ends there rather than idling to its time limit."""
+    from robolab_ms.envs import RoboLabEnv
+    from robolab_ms.policies.oracle import OracleFailure, OraclePolicy
+    from robolab_ms.policies.oracle.policy import GIVE_UP_STEPS, JOB_RETRIES
+
+    env = RoboLabEnv(task="BananaInBowl", obs_mode="state_dict", render_backend="cpu")
+    try:
+        env.reset(seed=0)
+        oracle = OraclePolicy()
+        oracle.bind(env)
+        oracle.reset("", env.action_space, seed=0)
+        planned = []
+
+        def plan(job):  # one still step that moves nothing
+            planned.append(job.obj)
+            oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
+
+        oracle._plan_job = plan
+        steps = 0
+        with pytest.raises(OracleFailure, match="gave up on 'banana'"):
+            while steps < 500:
+                env.step(oracle.act({}))
+                steps += 1
+        assert planned == ["banana"] * (JOB_RETRIES + 1)
+        assert steps >= GIVE_UP_STEPS and steps < 200
+    finally:
+        env.close()

@@ -285,3 +285,55 @@ def test_a_carry_refused_on_the_way_rises_to_the_place_height_first():
     with pytest.raises(OracleFailure):
         carry_over(moves, np.zeros(9), lifted, below, "carry the mug")
     assert moves.moved == []
+
+
+@pytest.fixture
+def jugs():
+    """JugsOnShelf at seed 0: a 28-cm jug (a 9.7-cm body, wider than the open fingers, under a 4-cm neck) stands
+    on the table, and the storage rack's top is 40 cm up."""
+    import gymnasium as gym
+
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task("JugsOnShelf").env_id, obs_mode="state_dict", render_backend="cpu")
+    env.reset(seed=0)
+    env.unwrapped.eval_context.refresh()
+    yield env.unwrapped
+    env.close()
+
+
+def test_a_bottle_whose_neck_fits_the_fingers_is_held_round_its_neck(jugs):
+    """The jug's body is too wide for the fingers, but its neck, where the fingers close, is not: the grasp goes
+    through the neck's middle (a chord of the wide body, off the middle, closed on air above the shoulder)."""
+    from robolab_ms.policies.oracle.world import world_points
+
+    points = world_points(jugs, "utilityjug_a01")
+    top = points[:, 2].max()
+    neck = points[points[:, 2] > top - 0.03]
+    neck_middle = (neck[:, :2].max(axis=0) + neck[:, :2].min(axis=0)) / 2
+    assert float(np.ptp(points[:, 0])) > OPEN_FINGER_GAP  # the body does not fit
+    grasp = grasp_pose(jugs, "utilityjug_a01")
+    assert np.linalg.norm(grasp[:2] - neck_middle) < 0.01
+    assert grasp[2] > top - 0.04  # at the neck, above the shoulder
+
+
+def test_a_screw_motion_that_spins_the_arm_round_is_refused(jugs):
+    """Straight up from over the jug to 78 cm, mplib's screw motion turns the joints through about 17 rad (a
+    90-second move near a singularity); `screw` refuses it, and keeps the short one up to 60 cm."""
+    from robolab_ms.policies.oracle.motion import MAX_SCREW_TRAVEL, MotionPlanner, seed_inverse_kinematics
+
+    seed_inverse_kinematics(0)
+    motion = MotionPlanner(jugs)
+    motion.bind(jugs)
+    motion.sync_fixtures()
+    grasp = grasp_pose(jugs, "utilityjug_a01")
+    start = motion.current_qpos()
+    status, postures = motion.ik(raised(grasp, 0.416 - grasp[2]), start)
+    assert status == "Success"
+    start[:7] = postures[0][:7]
+    high, low = (motion.flange_target(raised(grasp, height - grasp[2])) for height in (0.78, 0.6))
+    spin = motion.planner.plan_screw(high, start, time_step=motion.time_step)
+    assert spin["status"] == "Success"
+    assert np.abs(np.diff(spin["position"], axis=0)).max(axis=1).sum() > MAX_SCREW_TRAVEL
+    assert motion.screw(high, start)["status"] != "Success"
+    assert motion.screw(low, start)["status"] == "Success"

@@ -528,12 +528,13 @@ def chord_grasp(
     bottom: float,
     heights: Grid | None,
     failed: list[np.ndarray],
+    through_height: float,
 ) -> tuple[np.ndarray, float, np.ndarray] | None:
     """(xy, z, closing) of a grasp of the round object `name` (world `points`, footprint middle `middle`) off its
     middle, where the widest chord between the pads (FINGER_HALF_WIDTH either side of their line; a circle of the
     object's radius, as its surface points may be sparse) is CHORD_ROOM narrower than MAX_GRASP_WIDTH; None where
-    the object is no standing can (`round_section`, `straight_sided`), a grasp through its middle fits, or no chord
-    does. Of the closing `directions` and the two sides, the one whose hand clears the neighbours best, then the
+    the object is no standing can (`round_section`, `straight_sided`), a grasp through its middle at TCP height
+    `through_height` fits (what lies lower stays below the fingers: a bottle's neck), or no chord does. Of the closing `directions` and the two sides, the one whose hand clears the neighbours best, then the
     one away from grasps in `failed`, then the nearest to the robot (the arm reaches it most easily). A can as wide
     as the open fingers, held through its middle, stays between the opened pads (they still press on it); a pair of
     pads moved sideways off the middle closes on a narrower chord, and the squeeze, which pushes the can out along
@@ -546,7 +547,8 @@ def chord_grasp(
         direction = direction / np.linalg.norm(direction)
         along = np.array([-direction[1], direction[0]])
         offsets = points[:, :2] @ along - middle[:2] @ along
-        through_middle = points[np.abs(offsets) < FINGER_HALF_WIDTH]
+        around = points[:, 2] >= through_height - 2 * SECTION_STEP  # where the open fingers come down round it
+        through_middle = points[(np.abs(offsets) < FINGER_HALF_WIDTH) & around]
         if len(through_middle) >= 2 and float(np.ptp(through_middle[:, :2] @ direction)) <= MAX_GRASP_WIDTH:
             return None  # it fits through the middle: the grasp across it
         for side in (1.0, -1.0):
@@ -746,7 +748,7 @@ def grasp_pose(
         if wall is not None:
             return wall
     if closing is None and heights is not None and not tool and not part_only and not long:
-        chord = chord_grasp(env, name, points, middle, directions, bottom, heights, list(failed))
+        chord = chord_grasp(env, name, points, middle, directions, bottom, heights, list(failed), z)
         if chord is not None:
             xy, z, direction = chord
     return np.concatenate([[xy[0], xy[1], z], down_quaternion(direction, keep_sign)])

@@ -45,6 +45,8 @@ JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-
 STRAIGHT_STEP = 0.01  # m between the waypoints of a straight move, each solved by inverse kinematics ...
 STRAIGHT_TURN = 0.05  # ... or rad of turn between them
 MAX_JOINT_JUMP = 0.25  # rad a joint may change between two waypoints of a straight move (more: a flip, not a line)
+MAX_SCREW_TRAVEL = 12.0  # rad the joints may travel in all along mplib's screw motion (more: it spins the arm round
+# near a singularity, a move longer than an episode)
 HELD_FIXTURE_MARGIN = 0.015  # m kept between a carried object and a fixture (it swings a little in the fingers)
 SAMPLED_PLANNING_TIME = 2.0  # s RRT-Connect may take where no straight line in joint space is free
 OPEN_FINGER_QPOS = 0.04  # the planning model's finger joints, kept open
@@ -255,6 +257,16 @@ class MotionPlanner:
             return {"status": "straight move failed"}
         return {"status": "Success", "position": self.timed(waypoints)}
 
+    def screw(self, flange_pose: np.ndarray, qpos: np.ndarray) -> Plan:
+        """mplib's screw motion of the flange to `flange_pose` (near the edge of the workspace, where it may stop a
+        centimetre short), refused where its joints travel more than MAX_SCREW_TRAVEL."""
+        result = self.planner.plan_screw(flange_pose, qpos, time_step=self.time_step)
+        if result["status"] == "Success" and len(result["position"]) > 1:
+            travel = float(np.abs(np.diff(np.asarray(result["position"]), axis=0)).max(axis=1).sum())
+            if travel > MAX_SCREW_TRAVEL:
+                return {"status": f"the screw motion spins the arm round ({travel:.0f} rad of joint travel)"}
+        return result
+
     def straight_waypoints(self, flange_pose: np.ndarray, qpos: np.ndarray) -> np.ndarray | None:
         """The joint waypoints (N, 7) of a straight move of the flange (and the shortest turn) to `flange_pose`:
         inverse kinematics solved from the previous waypoint every STRAIGHT_STEP metres (or STRAIGHT_TURN radians),
@@ -330,7 +342,7 @@ class MotionPlanner:
                 current[:7] = waypoints[-1]
                 continue
             # at the edge of the workspace: within a centimetre of the pose
-            result = self.planner.plan_screw(self.flange_target(pose), current, time_step=self.time_step)
+            result = self.screw(self.flange_target(pose), current)
             if result["status"] != "Success":
                 return None
             position = np.asarray(result["position"])
@@ -362,11 +374,11 @@ class MotionPlanner:
     def move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
         """Queue the actions of one move to TCP `pose`, a straight line if `straight` and one can be planned;
         returns the final joints. OracleFailure, saying `what` could not be done, where no move is planned."""
-        planner, step = self.planner, self.time_step
+        planner = self.planner
         pose = self.flange_target(pose)
         result = self.plan_straight(pose, qpos) if straight else {"status": "not tried"}
         if straight and result["status"] != "Success":  # at the edge of the workspace: a straight line that may miss
-            result = planner.plan_screw(pose, qpos, time_step=step)  # the pose by a centimetre, or none
+            result = self.screw(pose, qpos)  # the pose by a centimetre, or none
         if result["status"] != "Success":
             status, goals = planner.IK(pose, qpos)
             if status != "Success":  # near the edge of the workspace: try harder

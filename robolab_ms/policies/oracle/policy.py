@@ -40,6 +40,7 @@ if TYPE_CHECKING:
 TIPS = 3  # times an upside-down object is pushed over before its job gives up
 JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
 JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
+GIVE_UP_STEPS = 30  # control steps held still, once every job's retries are used up, before the oracle gives up
 SLIP_DISTANCE = 0.05  # m the held object may move away from the hand (its grip settled) before it counts as slipped
 
 
@@ -83,14 +84,25 @@ class OraclePolicy(Policy):
         self.grasps: dict[str, list[np.ndarray]] = {}  # per object: the grasps its jobs were planned with
         self._closed_steps = 0  # actions replayed in a row with the gripper closed
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
+        self._gave_up = False  # whether every job's retries were used up with some objects not where they belong
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
         motion = self.motion
         while not motion.actions:
             if self.job is not None and self._check_job():
                 continue  # the hand holds still a moment before the job is checked again
-            if not self.jobs and not self._undone():  # everything done: hold still with the gripper open
-                return motion.action(motion.current_qpos(), 0.0)
+            if not self.jobs and not self._undone():
+                left = [job.obj for job in self.compiled if not job_done(self.env, job)]
+                if not left:  # everything done: hold still with the gripper open
+                    return motion.action(motion.current_qpos(), 0.0)
+                if self._gave_up:  # the episode would only run out its time
+                    raise OracleFailure(
+                        f"gave up on {', '.join(repr(name) for name in left)}: not where the task wants "
+                        f"after {JOB_RETRIES} retries each"
+                    )
+                self._gave_up = True  # a last look once the scene has held still (it may still settle there)
+                motion.hold(motion.current_qpos(), 0.0, GIVE_UP_STEPS)
+                continue
             job = self.jobs.popleft()
             self.job, self._job_settled = job, False  # _plan_job may hand the check to a job it queues
             try:
