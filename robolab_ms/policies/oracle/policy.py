@@ -40,7 +40,10 @@ if TYPE_CHECKING:
 TIPS = 3  # times an upside-down object is pushed over before its job gives up
 JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
 JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
-GIVE_UP_STEPS = 30  # control steps held still, once every job's retries are used up, before the oracle gives up
+GIVE_UP_STEPS = 30  # control steps the objects not where they belong lie still, once every job's retries are used
+# up, before the oracle gives up (while one still moves, it may come to rest where it belongs: the oracle waits)
+REST_CHECK_STEPS = 10  # control steps held still between two looks at whether those objects lie still
+REST_SPEED = 0.01  # m/s (and rad/s): an object slower than this, moving and turning, lies still
 SLIP_DISTANCE = 0.05  # m the held object may move away from the hand (its grip settled) before it counts as slipped
 
 
@@ -84,7 +87,7 @@ class OraclePolicy(Policy):
         self.grasps: dict[str, list[np.ndarray]] = {}  # per object: the grasps its jobs were planned with
         self._closed_steps = 0  # actions replayed in a row with the gripper closed
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
-        self._gave_up = False  # whether every job's retries were used up with some objects not where they belong
+        self._still_steps = 0  # steps the objects left where they do not belong have lain still, retries used up
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
         motion = self.motion
@@ -95,13 +98,13 @@ class OraclePolicy(Policy):
                 left = [job.obj for job in self.compiled if not job_done(self.env, job)]
                 if not left:  # everything done: hold still with the gripper open
                     return motion.action(motion.current_qpos(), 0.0)
-                if self._gave_up:  # the episode would only run out its time
+                if self._still_steps >= GIVE_UP_STEPS:  # the episode would only run out its time
                     raise OracleFailure(
                         f"gave up on {', '.join(repr(name) for name in left)}: not where the task wants "
                         f"after {JOB_RETRIES} retries each"
                     )
-                self._gave_up = True  # a last look once the scene has held still (it may still settle there)
-                motion.hold(motion.current_qpos(), 0.0, GIVE_UP_STEPS)
+                self._still_steps = self._still_steps + REST_CHECK_STEPS if self._lie_still(left) else 0
+                motion.hold(motion.current_qpos(), 0.0, REST_CHECK_STEPS)
                 continue
             job = self.jobs.popleft()
             self.job, self._job_settled = job, False  # _plan_job may hand the check to a job it queues
@@ -150,6 +153,15 @@ class OraclePolicy(Policy):
         self.job = None
         self._retry(job, first=True)  # with another grasp: the one that failed comes last (grasp_pose's `failed`)
         return False
+
+    def _lie_still(self, names: list[str]) -> bool:
+        """Whether every object of `names` moves and turns slower than REST_SPEED."""
+        for name in names:
+            actor = self.env.objects[name]
+            speeds = (actor.linear_velocity[0], actor.angular_velocity[0])
+            if any(float(np.linalg.norm(speed.cpu().numpy())) >= REST_SPEED for speed in speeds):
+                return False
+        return True
 
     def _undone(self) -> bool:
         """Once the queue is empty: queue again (within their retries) the jobs whose object no longer satisfies the
