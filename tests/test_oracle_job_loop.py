@@ -108,3 +108,10 @@ def test_the_oracle_gives_up_once_every_retry_is_used_instead_of_running_out_the
         assert steps >= GIVE_UP_STEPS and steps < 200
     finally:
         env.close()
+
+
+def test_the_oracle_waits_for_an_object_still_moving_before_it_gives_up(tmp_path):
+    """TakeMeasuringSpoonOut seed 4: the measuring cup's last retry leaves it still moving, and it comes to rest where
+    the condition wants it 36 steps after the oracle's last move (a fixed wait of 30 steps gave up 5 steps early)."""
+    result, episode = _episode(tmp_path, "TakeMeasuringSpoonOut", 4)
+    assert result.error is None and result.success
