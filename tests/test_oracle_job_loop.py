@@ -18,6 +18,29 @@ def _episode(tmp_path, task: str, seed: int):
     return results[0], episodes[0]
 
 
+@pytest.fixture
+def oracle_on():
+    """`oracle_on(task)`: the task's environment reset at seed 0 and the oracle bound to it and reset; closed after
+    the test."""
+    from robolab_ms.envs import RoboLabEnv
+    from robolab_ms.policies.oracle import OraclePolicy
+
+    made = []
+
+    def make(task: str):
+        env = RoboLabEnv(task=task, obs_mode="state_dict", render_backend="cpu")
+        made.append(env)
+        env.reset(seed=0)
+        oracle = OraclePolicy()
+        oracle.bind(env)
+        oracle.reset("", env.action_space, seed=0)
+        return env, oracle
+
+    yield make
+    for env in made:
+        env.close()
+
+
 @pytest.mark.slow
 def test_a_lifted_drill_is_held_while_the_arm_catches_up(tmp_path):
     """PickDrill seed 8: the moves of the lift end with the drill's lowest corner 3.0 cm up, not yet the 3 cm the
@@ -38,76 +61,60 @@ def test_a_ladle_knocked_out_of_the_pot_is_put_back(tmp_path):
     assert "object_tipped_over" in ladle and ladle.count("target_dropped") >= 2
 
 
-def test_a_job_given_up_hands_over_to_a_spare_object():
+def test_a_job_given_up_hands_over_to_a_spare_object(oracle_on):
     """PutTwoMugsOnShelf asks for any two of three mugs: once the second mug's job has failed on every retry, the
     oracle moves the third mug in its place (and looks over it, not the given-up one, at the end); a task that
     needs every one of its objects has no spare and the failure ends the episode."""
-    from robolab_ms.envs import RoboLabEnv
-    from robolab_ms.policies.oracle import OracleFailure, OraclePolicy
+    from robolab_ms.policies.oracle import OracleFailure
     from robolab_ms.policies.oracle.policy import JOB_RETRIES
 
-    env = RoboLabEnv(task="PutTwoMugsOnShelf", obs_mode="state_dict", render_backend="cpu")
-    try:
-        env.reset(seed=0)
-        oracle = OraclePolicy()
-        oracle.bind(env)
-        oracle.reset("", env.action_space, seed=0)
-        assert [job.obj for job in oracle.compiled] == ["ceramic_mug", "mug"]
-        planned = []
+    env, oracle = oracle_on("PutTwoMugsOnShelf")
+    assert [job.obj for job in oracle.compiled] == ["ceramic_mug", "mug"]
+    planned = []
 
-        def plan(job):  # the white mug's job never plans; the others queue one still step
-            planned.append(job.obj)
-            if job.obj == "mug":
-                raise OracleFailure("no motion plan")
-            oracle.job = None
-            oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
+    def plan(job):  # the white mug's job never plans; the others queue one still step
+        planned.append(job.obj)
+        if job.obj == "mug":
+            raise OracleFailure("no motion plan")
+        oracle.job = None
+        oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
 
-        oracle._plan_job = plan
+    oracle._plan_job = plan
+    oracle.act({})
+    oracle.act({})
+    assert planned == ["ceramic_mug"] + ["mug"] * (JOB_RETRIES + 1) + ["mug_01"]
+    assert [job.obj for job in oracle.compiled] == ["ceramic_mug", "mug_01"]
+
+    oracle.reset("", env.action_space, seed=0)
+    oracle.spares.clear()  # as for a task that needs all of its objects
+    planned.clear()
+    oracle.act({})
+    with pytest.raises(OracleFailure):
         oracle.act({})
-        oracle.act({})
-        assert planned == ["ceramic_mug"] + ["mug"] * (JOB_RETRIES + 1) + ["mug_01"]
-        assert [job.obj for job in oracle.compiled] == ["ceramic_mug", "mug_01"]
-
-        oracle.reset("", env.action_space, seed=0)
-        oracle.spares.clear()  # as for a task that needs all of its objects
-        planned.clear()
-        oracle.act({})
-        with pytest.raises(OracleFailure):
-            oracle.act({})
-    finally:
-        env.close()
 
 
-def test_the_oracle_gives_up_once_every_retry_is_used_instead_of_running_out_the_time():
-    """A job whose plan leaves its object where it was is planned again JOB_RETRIES times; then the oracle holds
-    still GIVE_UP_STEPS (the object may still settle where it belongs) and raises OracleFailure naming the object,
-    so a hopeless episode ends there rather than idling to its time limit."""
-    from robolab_ms.envs import RoboLabEnv
-    from robolab_ms.policies.oracle import OracleFailure, OraclePolicy
+def test_the_oracle_gives_up_once_every_retry_is_used_instead_of_running_out_the_time(oracle_on):
+    """A job whose plan leaves its object where it was is planned again JOB_RETRIES times; then, once the object has
+    lain still GIVE_UP_STEPS, the oracle raises OracleFailure naming it, so a hopeless episode ends there rather than
+    idling to its time limit."""
+    from robolab_ms.policies.oracle import OracleFailure
     from robolab_ms.policies.oracle.policy import GIVE_UP_STEPS, JOB_RETRIES
 
-    env = RoboLabEnv(task="BananaInBowl", obs_mode="state_dict", render_backend="cpu")
-    try:
-        env.reset(seed=0)
-        oracle = OraclePolicy()
-        oracle.bind(env)
-        oracle.reset("", env.action_space, seed=0)
-        planned = []
+    env, oracle = oracle_on("BananaInBowl")
+    planned = []
 
-        def plan(job):  # one still step that moves nothing
-            planned.append(job.obj)
-            oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
+    def plan(job):  # one still step that moves nothing
+        planned.append(job.obj)
+        oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
 
-        oracle._plan_job = plan
-        steps = 0
-        with pytest.raises(OracleFailure, match="gave up on 'banana'"):
-            while steps < 500:
-                env.step(oracle.act({}))
-                steps += 1
-        assert planned == ["banana"] * (JOB_RETRIES + 1)
-        assert steps >= GIVE_UP_STEPS and steps < 200
-    finally:
-        env.close()
+    oracle._plan_job = plan
+    steps = 0
+    with pytest.raises(OracleFailure, match="gave up on 'banana'"):
+        while steps < 500:
+            env.step(oracle.act({}))
+            steps += 1
+    assert planned == ["banana"] * (JOB_RETRIES + 1)
+    assert steps >= GIVE_UP_STEPS and steps < 200
 
 
 def test_the_oracle_waits_for_an_object_still_moving_before_it_gives_up(tmp_path):
