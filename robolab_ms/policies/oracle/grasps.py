@@ -534,8 +534,9 @@ def chord_grasp(
     middle, where the widest chord between the pads (FINGER_HALF_WIDTH either side of their line; a circle of the
     object's radius, as its surface points may be sparse) is CHORD_ROOM narrower than MAX_GRASP_WIDTH; None where
     the object is no standing can (`round_section`, `straight_sided`), a grasp through its middle at TCP height
-    `through_height` fits (what lies lower stays below the fingers: a bottle's neck), or no chord does. Of the closing `directions` and the two sides, the one whose hand clears the neighbours best, then the
-    one away from grasps in `failed`, then the nearest to the robot (the arm reaches it most easily). A can as wide
+    `through_height` fits (what lies lower stays below the fingers: a bottle's neck), or no chord does. Of the
+    closing `directions` and the two sides, the one whose hand clears the neighbours best, then the one away from
+    grasps in `failed`, then the nearest to the robot (the arm reaches it most easily). A can as wide
     as the open fingers, held through its middle, stays between the opened pads (they still press on it); a pair of
     pads moved sideways off the middle closes on a narrower chord, and the squeeze, which pushes the can out along
     the pads, stays within what friction holds while the chord is at least MIN_CHORD_SHARE of the diameter."""
