@@ -8,8 +8,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robolab_ms.policies.oracle.failure import OracleFailure
-from robolab_ms.policies.oracle.places import DIRECTIONS, free_spot, in_safe_area, shelf_exit_spot, spot_beside
-from robolab_ms.policies.oracle.world import centre, covered, lying_container, tilt, world_points
+from robolab_ms.policies.oracle.places import (
+    DIRECTIONS,
+    free_spot,
+    in_safe_area,
+    shelf_exit_spot,
+    spot_beside,
+    standing_spot,
+)
+from robolab_ms.policies.oracle.world import centre, covered, leaning_board, lying_container, tilt, world_points
 from robolab_ms.tasks.predicates import PREDICATES, per_object
 
 if TYPE_CHECKING:
@@ -86,6 +93,10 @@ def jobs_moving(env: RoboLabEnv, objects: list[str]) -> list[Job]:
             if near is not None and not in_safe_area(near):
                 near = centre(env, name)[:2]  # no room beside the shelf (a long object): near where it lies
             moved = objects[: len(footprints) + 1]  # those not yet moved still stand where they are
+            board = leaning_board(env, name)
+            if board is not None:  # stood on its end beside its container, then laid down away from it
+                footprints.append(standing_spot(env, name, board, taken=footprints).box)
+                continue
             footprints.append(free_spot(env, name, avoid=moved, taken=footprints, near=near))
         return [
             Job(name, at=tuple(float(v) for v in (box[:2] + box[2:]) / 2)) for name, box in zip(objects, footprints)

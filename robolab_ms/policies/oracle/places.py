@@ -26,7 +26,9 @@ from robolab_ms.policies.oracle.geometry import matrix_to_quaternion, quat_to_ma
 from robolab_ms.policies.oracle.grasps import grasp_pose, heavy_end
 from robolab_ms.policies.oracle.gripper import FINGER_HALF_WIDTH, OPEN_FINGER_REACH
 from robolab_ms.policies.oracle.world import (
+    Board,
     centre,
+    container_below,
     contents_top,
     covering_boxes,
     fixture_boxes,
@@ -49,6 +51,12 @@ NEXT_TO = DIRECTIONS["left_of"]  # `next_to` puts the object on the left
 TABLE_SAFE_X, TABLE_SAFE_Y = (0.30, 0.75), (-0.40, 0.40)  # where the oracle may put things down (robot frame, m)
 TABLE_GRID = (19, 33)  # spots tried across the safe area along x and y
 SPOT_MARGIN = 0.03  # m of table kept clear around an object the oracle puts down
+STAND_GAP = 0.03  # m between a container's wall and a board stood on its end beside it, at least ...
+STAND_OUT = 0.15  # ... and at most this much more
+STAND_ALONG = 0.12  # m a board's standing spot may move along the wall either way
+STAND_STEP = 0.01  # m between the standing spots tried
+STAND_MARGIN = 0.005  # m kept between a standing board's end and anything else (it stands there only a moment)
+STAND_TURNS = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0)  # degrees a standing board may be turned about the vertical
 PLACE_CELL = 0.01  # m between the rays that map a container's floor or a plate when choosing where to set down
 PLACE_FLATNESS = 0.02  # m a place spot may rise above the lowest point of the container or plate
 PLACE_MARGIN = 0.015  # m kept between an object set down in a container or on a plate and what is already there
@@ -112,6 +120,67 @@ def free_spot(
     middle = np.array([np.mean(TABLE_SAFE_X), np.mean(TABLE_SAFE_Y)]) if near is None else np.asarray(near)
     spot = spots[ok][np.linalg.norm(spots[ok] - middle, axis=1).argmin()]
     return np.concatenate([spot - half, spot + half])
+
+
+@dataclass(frozen=True)
+class StandingSpot:
+    """Where a board stands on its end beside its container: the footprint [x_min, y_min, x_max, y_max], the turn
+    (rad, about the vertical) from how it leans to how it stands there, and the horizontal unit direction it is
+    laid down in, away from the container."""
+
+    box: np.ndarray
+    turn: float
+    lay: np.ndarray
+
+
+def standing_spot(
+    env: RoboLabEnv, name: str, board: Board, taken: list[np.ndarray], at: np.ndarray | None = None
+) -> StandingSpot:
+    """A spot on the table, outside the container that board `name` leans in, on the side its raised end leans out
+    over (or at `at`), where the board stood on its end keeps STAND_MARGIN from every other object and from the
+    footprints in `taken`, and from where it is laid down flat away from the container, its middle landing in the
+    safe area. The least turned first, then nearest the wall and the board's middle."""
+    container = container_below(env, name)
+    box = world_points(env, container)[:, :2]
+    out = np.array([board.up[0], board.up[1]]) / np.linalg.norm(board.up[:2])
+    along = np.array([-out[1], out[0]])
+    middle = centre(env, name)[:2]
+    if at is None:
+        wall = float((box @ out).max())
+        start = middle + out * (wall - middle @ out + board.thickness / 2 + STAND_GAP)
+        outs = np.arange(0.0, STAND_OUT + 1e-9, STAND_STEP)
+        alongs = np.arange(-STAND_ALONG, STAND_ALONG + 1e-9, STAND_STEP)
+        offsets = np.array([(o, a) for o in outs for a in alongs])
+        offsets = offsets[np.argsort(np.hypot(offsets[:, 0], offsets[:, 1]), kind="stable")]
+        spots = start + offsets[:, :1] * out + offsets[:, 1:] * along
+    else:
+        spots = np.asarray(at, dtype=np.float64)[None]
+    boxes = list(taken)
+    for other in env.objects:
+        if other != name:
+            points = world_points(env, other)[:, :2]
+            boxes.append(np.concatenate([points.min(axis=0), points.max(axis=0)]))
+    container_middle = (box.max(axis=0) + box.min(axis=0)) / 2
+    axis = np.cross(board.up, [0.0, 0.0, 1.0])
+    stood = rotation_about(axis / np.linalg.norm(axis), float(np.arccos(np.clip(board.up[2], -1.0, 1.0))))
+    flat_across, flat_normal = (stood @ board.across)[:2], (stood @ board.normal)[:2]  # as it stands, unturned
+    for degrees in STAND_TURNS:
+        turn = np.radians(degrees)
+        rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+        across, normal = rotation @ flat_across, rotation @ flat_normal
+        across /= max(float(np.linalg.norm(across)), 1e-9)
+        normal /= max(float(np.linalg.norm(normal)), 1e-9)
+        half = np.abs(across) * board.width / 2 + np.abs(normal) * board.thickness / 2
+        ok = np.array([in_safe_area(spot) for spot in spots])
+        for other in boxes:
+            other_middle, other_half = (other[:2] + other[2:]) / 2, (other[2:] - other[:2]) / 2
+            ok &= (np.abs(spots - other_middle) - half - other_half).max(axis=1) >= STAND_MARGIN
+        for spot in spots[ok]:
+            away = spot - container_middle
+            for lay in sorted((normal, -normal), key=lambda direction: -float(direction @ away)):
+                if float(lay @ away) > 0.0 and in_safe_area(spot + lay * board.length / 2):
+                    return StandingSpot(np.concatenate([spot - half, spot + half]), float(turn), lay)
+    raise OracleFailure(f"no spot beside '{container}' where '{name}' can be stood on its end and laid down")
 
 
 def shelf_exit_spot(env: RoboLabEnv, name: str) -> np.ndarray:

@@ -26,13 +26,14 @@ from robolab_ms.policies.oracle.places import crowded_top
 from robolab_ms.policies.oracle.side_grasps import side_grips
 from robolab_ms.policies.oracle.skills import (
     front_pick_and_place,
+    lift_out_standing,
     pick_and_place,
     side_hold_pick_and_place,
     stand_upright,
     tip_onto_side,
     upside_down,
 )
-from robolab_ms.policies.oracle.world import covered, lying_container
+from robolab_ms.policies.oracle.world import covered, leaning_board, lying_container
 
 if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
@@ -219,6 +220,10 @@ class OraclePolicy(Policy):
             front_pick_and_place(motion, job.obj, centred=job.centred, lift=job.lift, **where)
             return
         if self._side_hold(job):  # a long tool in a bin, its handle out over the wall: held there from the side
+            return
+        board = leaning_board(env, job.obj) if job.at is not None and job.onto is None else None
+        if board is not None:  # too wide for the fingers, leaning in a container: stood up, lifted out, laid down
+            lift_out_standing(motion, job.obj, board, job.at)
             return
         after = self._sharing(job)
         failed = self.grasps.setdefault(job.obj, [])

@@ -3,7 +3,9 @@
   `turned_rim_grasps` where the straight-in hand meets a neighbour), for tipping it up about its base;
 - an object on a shelf level under another (`front_grasps`): the hand leans in from the open side;
 - a long tool lying in a container with its handle out over the wall (`side_grips`): the hand comes in level
-  across the handle, the fingers closing in the vertical plane through it.
+  across the handle, the fingers closing in the vertical plane through it;
+- a board leaning in a container (`board_end_grasp`): the hand points down its slope at its raised end, the fingers
+  closing across its thickness.
 """
 
 from __future__ import annotations
@@ -35,9 +37,11 @@ from robolab_ms.policies.oracle.gripper import (
 )
 from robolab_ms.policies.oracle.world import (
     STANDING_TILT,
+    Board,
     container_below,
     fixture_boxes,
     handle_part,
+    in_world,
     open_sides,
     others_near,
     ray_hit,
@@ -235,6 +239,22 @@ def pulled_out(env: RoboLabEnv, name: str, grasp: FrontGrasp) -> np.ndarray | No
     by it are outside every fixture's footprint; None if the hand would hit a fixture first."""
     held = world_points(env, name) - grasp.pose[:3]
     return moved_out(raised(grasp.pose, FRONT_LIFT), grasp.out, fixture_boxes(env), held)
+
+
+# ------------------------------------------------------------------------------------------------ boards
+BOARD_INSET = 0.03  # m down a leaning board's slope from its raised end where the TCP holds it
+
+
+def board_end_grasp(env: RoboLabEnv, name: str, board: Board) -> np.ndarray:
+    """A grasp [x, y, z, qw, qx, qy, qz] of leaning board `name` at the middle of its raised end, BOARD_INSET in:
+    the hand points down the board's slope and the fingers close across its thickness, so that the board can be
+    tipped up about its low end without turning in the pads."""
+    local = env.eval_context.entries[name].points
+    middle = in_world(env, name, ((local.max(axis=0) + local.min(axis=0)) / 2)[None])[0]
+    end = middle + board.up * (board.length / 2 - BOARD_INSET)
+    approach = -board.up
+    rotation = np.stack([np.cross(board.normal, approach), board.normal, approach], axis=1)
+    return np.concatenate([end, matrix_to_quaternion(rotation)])
 
 
 # ------------------------------------------------------------------------------------------------ handles

@@ -8,6 +8,7 @@
 - `front_pick_and_place`: an object under a shelf level, grasped by a hand leaning in from the open side and
   pulled straight out;
 - `side_hold_pick_and_place`: a long tool held by its handle from the side where it reaches out of a container;
+- `lift_out_standing`: a board leaning in a container stood up on its end, lifted out and laid on the table;
 - `stand_upright`: a lying object stood up, tipped about its base (`pivot_upright`, holding a container's rim or
   a narrow end) or lifted and turned in the air (`lift_and_turn_upright`);
 - `tip_onto_side`: an object standing upside down pushed over at its top edge onto its side, from where
@@ -51,11 +52,13 @@ from robolab_ms.policies.oracle.places import (
     head_first_place,
     place_pose,
     shared_place,
+    standing_spot,
     turned_place,
 )
 from robolab_ms.policies.oracle.side_grasps import (
     FRONT_LIFT,
     FrontGrasp,
+    board_end_grasp,
     front_grasps,
     moved_out,
     pulled_out,
@@ -64,6 +67,7 @@ from robolab_ms.policies.oracle.side_grasps import (
 )
 from robolab_ms.policies.oracle.world import (
     UPSIDE_DOWN_TILT,
+    Board,
     centre,
     container_below,
     fixture_boxes,
@@ -109,6 +113,12 @@ FINGER_HALF_THICKNESS = 0.014  # m from the TCP to the face of the closed finger
 TIP_TURNS = (0.0, 20.0, -20.0, 40.0, -40.0)  # degrees from an upside-down object's short axis it may be pushed
 TIP_LANDING_MARGIN = 0.01  # m kept between the side it falls onto and any other object ...
 TIP_TRAVEL = 0.05  # ... and this much further out where there is room (it rolls, and stands up further out)
+BOARD_APPROACH = 0.08  # m up a leaning board's slope from where the hand comes in to its raised end
+BOARD_DRAW_RISE = 0.01  # m a board stood on its end is raised off the floor while it is drawn across ...
+BOARD_WALL_GAP = 0.03  # ... to this far from the container's wall
+BOARD_SET_GAP = 0.01  # m above the table that a standing board's end is lowered to ...
+BOARD_LAY_PUSH = 0.05  # ... before the hand moves this far away from the container ...
+BOARD_LAY_DROP = 0.3  # ... and down by this share of it, tipping the board over that way
 
 
 def _where(onto: str | None, at: tuple[float, float] | None) -> str:
@@ -576,13 +586,7 @@ def pivot_upright(
     points = world_points(env, name)
     base_end = points[points @ up < (points @ up).min() + BASE_BAND]
     pivot = base_end[base_end[:, 2].argmin()]  # where the base touches the table: it stays there
-    axis = np.cross(up, [0.0, 0.0, 1.0])
-    angle = np.arccos(np.clip(up[2], -1.0, 1.0))
-    hand = quat_to_matrix(grasp[3:])
-    tipping = []
-    for step in range(1, PIVOT_STEPS + 1):
-        turn = rotation_about(axis, angle * step / PIVOT_STEPS)
-        tipping.append(np.concatenate([pivot + turn @ (grasp[:3] - pivot), matrix_to_quaternion(turn @ hand)]))
+    tipping = tip_poses(grasp, pivot, up)
     qpos = motion.current_qpos()
     status, postures = motion.ik(grasp, qpos, IK_RETRIES)
     if status != "Success":
@@ -620,6 +624,87 @@ def pivot_upright(
     motion.hold(final, 0.0, GRIPPER_STEPS)
     try:  # the object stands and is let go: lifting the hand away is a courtesy, not a must
         motion.move(final, raised(tipping[-1], APPROACH_HEIGHT), f"lift the hand out of '{name}'")
+    except OracleFailure:
+        pass
+
+
+def tip_poses(grasp: np.ndarray, pivot: np.ndarray, up: np.ndarray) -> list[np.ndarray]:
+    """The TCP poses, PIVOT_STEPS of them, of a hand holding an object at `grasp` while the object turns about
+    `pivot` until its axis `up` points straight up."""
+    axis = np.cross(up, [0.0, 0.0, 1.0])
+    angle = np.arccos(np.clip(up[2], -1.0, 1.0))
+    hand = quat_to_matrix(grasp[3:])
+    poses = []
+    for step in range(1, PIVOT_STEPS + 1):
+        turn = rotation_about(axis, angle * step / PIVOT_STEPS)
+        poses.append(np.concatenate([pivot + turn @ (grasp[:3] - pivot), matrix_to_quaternion(turn @ hand)]))
+    return poses
+
+
+def lift_out_standing(motion: MotionPlanner, name: str, board: Board, at: tuple[float, float]) -> None:
+    """Take board `name` out of the container it leans in and lay it on the table with its end at `at`: held at
+    its raised end (`board_end_grasp`), tipped up about its low end until it stands (it hangs from the pads without
+    turning in them), drawn across the floor towards the wall on the side of `at`, lifted until its end clears the
+    rim, carried level, lowered until its end is just above the table, tipped away from the container by the hand
+    and let go, so that it falls flat outside."""
+    env = motion.env
+    grasp = board_end_grasp(env, name, board)
+    points = world_points(env, name)
+    along = points @ board.up
+    low_end = points[along < along.min() + BASE_BAND]
+    pivot = low_end[low_end[:, 2].argmin()]
+    tipping = tip_poses(grasp, pivot, board.up)
+    qpos = motion.current_qpos()
+    status, postures = motion.ik(grasp, qpos, IK_RETRIES)
+    if status != "Success":
+        raise OracleFailure(f"cannot reach the raised end of '{name}': {status}")
+    approach = shifted(grasp, board.up * BOARD_APPROACH)
+    for posture in sorted(postures, key=lambda p: np.abs(p[:7] - qpos[:7]).sum()):
+        at_grasp = qpos.copy()
+        at_grasp[:7] = posture[:7]
+        tip_paths = motion.straight_chain(at_grasp, tipping)
+        way_in = motion.straight_chain(at_grasp, [approach]) if tip_paths is not None else None
+        if way_in is not None:
+            break
+    else:
+        raise OracleFailure(f"cannot stand '{name}' up on its end: no arm posture allows the straight moves")
+    before = at_grasp.copy()
+    before[:7] = way_in[-1][-1]
+    result = motion.plan_to_joints([before], qpos)
+    if result["status"] != "Success":
+        raise OracleFailure(f"cannot reach the raised end of '{name}': no motion plan ({result['status']})")
+    motion.queue(qpos, result["position"])
+    motion.queue(before, np.concatenate([way_in[0][::-1][1:], [posture[:7]]]))
+    motion.hold(at_grasp, 1.0, GRIPPER_STEPS)
+    for path in tip_paths:
+        motion.queue(at_grasp, path)
+    qpos = at_grasp.copy()
+    qpos[:7] = tip_paths[-1][-1]
+    motion.hold(qpos, 1.0, PIVOT_HOLD_STEPS)
+    standing = tipping[-1]
+    hanging = standing[2] - pivot[2]  # from the TCP down to the board's end
+    spot = standing_spot(env, name, board, [], at=np.asarray(at))
+    container = container_below(env, name)
+    box = world_points(env, container)
+    out = np.asarray(at) - standing[:2]
+    out /= max(float(np.linalg.norm(out)), 1e-9)
+    room = float((box[:, :2] @ out).max() - standing[:2] @ out) - board.thickness / 2 - BOARD_WALL_GAP
+    drawn = raised(standing, BOARD_DRAW_RISE)
+    drawn[:2] += out * max(room, 0.0)
+    qpos = motion.move_straight(qpos, drawn, f"draw '{name}' across to the wall")
+    qpos, lifted = _rise(motion, qpos, drawn, float(box[:, 2].max()) + SIDE_LIFT_CLEARANCE + hanging, f"lift '{name}'")
+    turn = rotation_about(np.array([0.0, 0.0, 1.0]), spot.turn)
+    way = np.concatenate([[at[0], at[1], lifted[2]], matrix_to_quaternion(turn @ quat_to_matrix(lifted[3:]))])
+    try:
+        qpos = motion.move_straight(qpos, way, f"carry '{name}' standing")
+    except OracleFailure:
+        qpos = motion.move(qpos, way, f"carry '{name}' standing")
+    qpos, low = _rise(motion, qpos, way, hanging + BOARD_SET_GAP, f"lower '{name}' onto its end")
+    tipped = shifted(low, np.array([spot.lay[0], spot.lay[1], -BOARD_LAY_DROP]) * BOARD_LAY_PUSH)
+    qpos = motion.move_straight(qpos, tipped, f"tip '{name}' away from '{container}'")
+    motion.hold(qpos, 0.0, GRIPPER_STEPS)
+    try:  # the board is let go: moving the hand away is a courtesy, not a must
+        motion.move(qpos, raised(shifted(tipped, board.up * BOARD_APPROACH), APPROACH_HEIGHT), f"retreat from '{name}'")
     except OracleFailure:
         pass
 

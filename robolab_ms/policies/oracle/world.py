@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import weakref
 from collections import OrderedDict
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -38,6 +39,9 @@ COVER_SHARE = 0.5  # the share of an object's points under a shelf's board that 
 HANDLE_PART_RATIO = 4.0  # a handle is a box collision part this many times as long as its thickest section ...
 HANDLE_PART_THICKNESS = 0.04  # ... and no thicker than this (m), so that the open fingers close across it
 SOLID_SAMPLE = 0.01  # m between the points sampled through a box collision part
+BOARD_THICKNESS = 0.03  # m: an object no thicker than this, wider than the open fingers, is a board ...
+BOARD_LEAN = np.radians(15.0)  # ... that leans where its long axis rises more than this
+BOARD_END_SHARE = 0.2  # the share of a board's length at either end that must be as wide as it (no handle)
 SEEN_MIN_POINTS = 12  # the fewest points of a ray-cast map of an object's top that are added to its own
 
 Grid = tuple[np.ndarray, np.ndarray]  # cell centres (K, 2) and the tops of what is there (K,)
@@ -174,6 +178,40 @@ def lying_container(env: RoboLabEnv, name: str) -> bool:
     if env.scene.gpu_sim_enabled or not env.eval_context.entries[name].is_container:
         return False
     return LYING_TILT < tilt(env, name) < UPSIDE_DOWN_TILT
+
+
+@dataclass(frozen=True)
+class Board:
+    """A flat object leaning in a container: unit world axes along its length (pointing up the slope), across its
+    width and through its thickness, and its length, width and thickness (m)."""
+
+    up: np.ndarray
+    across: np.ndarray
+    normal: np.ndarray
+    length: float
+    width: float
+    thickness: float
+
+
+def leaning_board(env: RoboLabEnv, name: str) -> Board | None:
+    """Object `name` as a `Board` where it is one (no thicker than BOARD_THICKNESS and, at both ends, wider than
+    the open fingers: no hold from above fits across it) leaning in a container (`container_below`), its long axis rising
+    more than BOARD_LEAN; else None."""
+    local = env.eval_context.entries[name].points
+    extents = np.ptp(local, axis=0)
+    thin, middle, long = np.argsort(extents)
+    if extents[thin] > BOARD_THICKNESS or extents[middle] <= OPEN_FINGER_GAP:
+        return None
+    along = local[:, long]
+    for end in (along.min(), along.max()):  # as wide at both ends: flat all along (a hammer's handle is not)
+        near = np.abs(along - end) <= BOARD_END_SHARE * extents[long]
+        if np.ptp(local[near, middle]) <= OPEN_FINGER_GAP:
+            return None
+    rotation = env.eval_context.rotation(name)[0].cpu().numpy().astype(np.float64)
+    up = rotation[:, long] * (1.0 if rotation[2, long] >= 0.0 else -1.0)
+    if up[2] < np.sin(BOARD_LEAN) or container_below(env, name) is None:
+        return None
+    return Board(up, rotation[:, middle], rotation[:, thin], *(float(extents[i]) for i in (long, middle, thin)))
 
 
 def container_below(env: RoboLabEnv, name: str) -> str | None:
