@@ -95,6 +95,27 @@ def in_safe_area(xy: np.ndarray) -> bool:
     return bool(TABLE_SAFE_X[0] <= xy[0] <= TABLE_SAFE_X[1] and TABLE_SAFE_Y[0] <= xy[1] <= TABLE_SAFE_Y[1])
 
 
+def footprints(env: RoboLabEnv, skip: list[str]) -> list[np.ndarray]:
+    """The footprint [x_min, y_min, x_max, y_max] of every object of the scene but those in `skip`."""
+    boxes = []
+    for other in env.objects:
+        if other not in skip:
+            points = world_points(env, other)[:, :2]
+            boxes.append(np.concatenate([points.min(axis=0), points.max(axis=0)]))
+    return boxes
+
+
+def clear_spots(spots: np.ndarray, half: np.ndarray, boxes: list[np.ndarray], margin: float) -> np.ndarray:
+    """Which of the table points `spots` (N, 2) a footprint of half extents `half` (x, y) centred there keeps at
+    least `margin` from every footprint in `boxes`."""
+    ok = np.ones(len(spots), dtype=bool)
+    for box in boxes:
+        middle, other_half = (box[:2] + box[2:]) / 2, (box[2:] - box[:2]) / 2
+        gaps = np.abs(spots - middle) - half - other_half  # per axis; apart when either gap is wide enough
+        ok &= gaps.max(axis=1) >= margin
+    return ok
+
+
 def free_spot(
     env: RoboLabEnv, name: str, avoid: list[str], taken: list[np.ndarray], near: np.ndarray | None = None
 ) -> np.ndarray:
@@ -105,16 +126,7 @@ def free_spot(
     half = (own.max(axis=0) - own.min(axis=0)) / 2
     xs, ys = np.meshgrid(np.linspace(*TABLE_SAFE_X, TABLE_GRID[0]), np.linspace(*TABLE_SAFE_Y, TABLE_GRID[1]))
     spots = np.stack([xs.ravel(), ys.ravel()], axis=1)
-    boxes = list(taken)
-    for other in env.objects:
-        if other not in avoid and other != name:
-            points = world_points(env, other)[:, :2]
-            boxes.append(np.concatenate([points.min(axis=0), points.max(axis=0)]))
-    ok = np.ones(len(spots), dtype=bool)
-    for box in boxes:
-        middle, other_half = (box[:2] + box[2:]) / 2, (box[2:] - box[:2]) / 2
-        gaps = np.abs(spots - middle) - half - other_half  # per axis; apart when either gap is wide enough
-        ok &= gaps.max(axis=1) >= SPOT_MARGIN
+    ok = clear_spots(spots, half, footprints(env, [name, *avoid]) + list(taken), SPOT_MARGIN)
     if not ok.any():
         raise OracleFailure(f"no free spot on the table for '{name}' {SPOT_MARGIN:.2f} m clear of everything else")
     middle = np.array([np.mean(TABLE_SAFE_X), np.mean(TABLE_SAFE_Y)]) if near is None else np.asarray(near)
@@ -155,11 +167,7 @@ def standing_spot(
         spots = start + offsets[:, :1] * out + offsets[:, 1:] * along
     else:
         spots = np.asarray(at, dtype=np.float64)[None]
-    boxes = list(taken)
-    for other in env.objects:
-        if other != name:
-            points = world_points(env, other)[:, :2]
-            boxes.append(np.concatenate([points.min(axis=0), points.max(axis=0)]))
+    boxes = footprints(env, [name]) + list(taken)
     container_middle = (box.max(axis=0) + box.min(axis=0)) / 2
     axis = np.cross(board.up, [0.0, 0.0, 1.0])
     stood = rotation_about(axis / np.linalg.norm(axis), float(np.arccos(np.clip(board.up[2], -1.0, 1.0))))
@@ -171,10 +179,7 @@ def standing_spot(
         across /= max(float(np.linalg.norm(across)), 1e-9)
         normal /= max(float(np.linalg.norm(normal)), 1e-9)
         half = np.abs(across) * board.width / 2 + np.abs(normal) * board.thickness / 2
-        ok = np.array([in_safe_area(spot) for spot in spots])
-        for other in boxes:
-            other_middle, other_half = (other[:2] + other[2:]) / 2, (other[2:] - other[:2]) / 2
-            ok &= (np.abs(spots - other_middle) - half - other_half).max(axis=1) >= STAND_MARGIN
+        ok = np.array([in_safe_area(spot) for spot in spots]) & clear_spots(spots, half, boxes, STAND_MARGIN)
         for spot in spots[ok]:
             away = spot - container_middle
             for lay in sorted((normal, -normal), key=lambda direction: -float(direction @ away)):

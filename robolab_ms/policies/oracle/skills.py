@@ -642,11 +642,43 @@ def tip_poses(grasp: np.ndarray, pivot: np.ndarray, up: np.ndarray) -> list[np.n
 
 
 def lift_out_standing(motion: MotionPlanner, name: str, board: Board, at: tuple[float, float]) -> None:
-    """Take board `name` out of the container it leans in and lay it on the table with its end at `at`: held at
-    its raised end (`board_end_grasp`), tipped up about its low end until it stands (it hangs from the pads without
-    turning in them), drawn across the floor towards the wall on the side of `at`, lifted until its end clears the
-    rim, carried level, lowered until its end is just above the table, tipped away from the container by the hand
-    and let go, so that it falls flat outside."""
+    """Take board `name` out of the container it leans in and lay it on the table with its end at `at`: stood up
+    on its low end (`stand_on_end`), drawn across the floor towards the wall on the side of `at`, lifted until its
+    end clears the rim, carried level (turned as `places.standing_spot` turns it there), lowered until its end is
+    just above the table, tipped away from the container by the hand and let go, so that it falls flat outside."""
+    env = motion.env
+    qpos, standing, hanging = stand_on_end(motion, name, board)
+    spot = standing_spot(env, name, board, [], at=np.asarray(at))
+    container = container_below(env, name)
+    box = world_points(env, container)
+    out = np.asarray(at) - standing[:2]
+    out /= max(float(np.linalg.norm(out)), 1e-9)
+    room = float((box[:, :2] @ out).max() - standing[:2] @ out) - board.thickness / 2 - BOARD_WALL_GAP
+    drawn = raised(standing, BOARD_DRAW_RISE)
+    drawn[:2] += out * max(room, 0.0)
+    qpos = motion.move_straight(qpos, drawn, f"draw '{name}' across to the wall")
+    qpos, lifted = _rise(motion, qpos, drawn, float(box[:, 2].max()) + SIDE_LIFT_CLEARANCE + hanging, f"lift '{name}'")
+    turn = rotation_about(np.array([0.0, 0.0, 1.0]), spot.turn)
+    way = np.concatenate([[at[0], at[1], lifted[2]], matrix_to_quaternion(turn @ quat_to_matrix(lifted[3:]))])
+    try:
+        qpos = motion.move_straight(qpos, way, f"carry '{name}' standing")
+    except OracleFailure:
+        qpos = motion.move(qpos, way, f"carry '{name}' standing")
+    qpos, low = _rise(motion, qpos, way, hanging + BOARD_SET_GAP, f"lower '{name}' onto its end")
+    tipped = shifted(low, np.array([spot.lay[0], spot.lay[1], -BOARD_LAY_DROP]) * BOARD_LAY_PUSH)
+    qpos = motion.move_straight(qpos, tipped, f"tip '{name}' away from '{container}'")
+    motion.hold(qpos, 0.0, GRIPPER_STEPS)
+    try:  # the board is let go: moving the hand away is a courtesy, not a must
+        motion.move(qpos, raised(shifted(tipped, board.up * BOARD_APPROACH), APPROACH_HEIGHT), f"retreat from '{name}'")
+    except OracleFailure:
+        pass
+
+
+def stand_on_end(motion: MotionPlanner, name: str, board: Board) -> tuple[np.ndarray, np.ndarray, float]:
+    """Queue the moves that take leaning board `name` at its raised end (`board_end_grasp`, reached straight down
+    its slope) and tip it up about the lowest point of its low end until it stands on it, held (hanging from the
+    pads, it cannot turn in them). Returns the joints and the TCP pose at the end, and how far below the TCP the
+    board's end is. The arm posture at the grasp is chosen so that the whole tip is one chain of straight moves."""
     env = motion.env
     grasp = board_end_grasp(env, name, board)
     points = world_points(env, name)
@@ -681,32 +713,7 @@ def lift_out_standing(motion: MotionPlanner, name: str, board: Board, at: tuple[
     qpos = at_grasp.copy()
     qpos[:7] = tip_paths[-1][-1]
     motion.hold(qpos, 1.0, PIVOT_HOLD_STEPS)
-    standing = tipping[-1]
-    hanging = standing[2] - pivot[2]  # from the TCP down to the board's end
-    spot = standing_spot(env, name, board, [], at=np.asarray(at))
-    container = container_below(env, name)
-    box = world_points(env, container)
-    out = np.asarray(at) - standing[:2]
-    out /= max(float(np.linalg.norm(out)), 1e-9)
-    room = float((box[:, :2] @ out).max() - standing[:2] @ out) - board.thickness / 2 - BOARD_WALL_GAP
-    drawn = raised(standing, BOARD_DRAW_RISE)
-    drawn[:2] += out * max(room, 0.0)
-    qpos = motion.move_straight(qpos, drawn, f"draw '{name}' across to the wall")
-    qpos, lifted = _rise(motion, qpos, drawn, float(box[:, 2].max()) + SIDE_LIFT_CLEARANCE + hanging, f"lift '{name}'")
-    turn = rotation_about(np.array([0.0, 0.0, 1.0]), spot.turn)
-    way = np.concatenate([[at[0], at[1], lifted[2]], matrix_to_quaternion(turn @ quat_to_matrix(lifted[3:]))])
-    try:
-        qpos = motion.move_straight(qpos, way, f"carry '{name}' standing")
-    except OracleFailure:
-        qpos = motion.move(qpos, way, f"carry '{name}' standing")
-    qpos, low = _rise(motion, qpos, way, hanging + BOARD_SET_GAP, f"lower '{name}' onto its end")
-    tipped = shifted(low, np.array([spot.lay[0], spot.lay[1], -BOARD_LAY_DROP]) * BOARD_LAY_PUSH)
-    qpos = motion.move_straight(qpos, tipped, f"tip '{name}' away from '{container}'")
-    motion.hold(qpos, 0.0, GRIPPER_STEPS)
-    try:  # the board is let go: moving the hand away is a courtesy, not a must
-        motion.move(qpos, raised(shifted(tipped, board.up * BOARD_APPROACH), APPROACH_HEIGHT), f"retreat from '{name}'")
-    except OracleFailure:
-        pass
+    return qpos, tipping[-1], float(tipping[-1][2] - pivot[2])
 
 
 def lift_and_turn_upright(motion: MotionPlanner, name: str, up: np.ndarray, closing: np.ndarray) -> None:
