@@ -583,27 +583,14 @@ def pivot_upright(
     point of its base, which stays on the table, then let go and lift the hand. The arm posture at the grasp is
     chosen so that the whole tipping motion is one chain of straight moves."""
     env = motion.env
-    points = world_points(env, name)
-    base_end = points[points @ up < (points @ up).min() + BASE_BAND]
-    pivot = base_end[base_end[:, 2].argmin()]  # where the base touches the table: it stays there
+    pivot = tip_pivot(world_points(env, name), up)  # where the base touches the table: it stays there
     tipping = tip_poses(grasp, pivot, up)
     qpos = motion.current_qpos()
-    status, postures = motion.ik(grasp, qpos, IK_RETRIES)
-    if status != "Success":
-        raise OracleFailure(f"cannot reach the rim of '{name}': {status}")
-    for posture in sorted(postures, key=lambda p: np.abs(p[:7] - qpos[:7]).sum()):
-        at_grasp = qpos.copy()
-        at_grasp[:7] = posture[:7]
-        tip_paths = motion.straight_chain(at_grasp, tipping)
-        if tip_paths is None:
-            continue
-        outside = shifted(grasp, (up if backing is None else backing) * RIM_APPROACH)
-        high = raised(outside, APPROACH_HEIGHT) if backing is None else above(env, outside, APPROACH_HEIGHT, 0.0)
-        back_out = motion.straight_chain(at_grasp, [outside, high])
-        if back_out is not None:
-            break
-    else:
-        raise OracleFailure(f"cannot tip '{name}' up about its base: no arm posture allows the straight moves")
+    outside = shifted(grasp, (up if backing is None else backing) * RIM_APPROACH)
+    high = raised(outside, APPROACH_HEIGHT) if backing is None else above(env, outside, APPROACH_HEIGHT, 0.0)
+    at_grasp, tip_paths, back_out = tip_posture(
+        motion, grasp, tipping, [outside, high], f"the rim of '{name}'", f"tip '{name}' up about its base"
+    )
     # come in the way the hand would back out: down beside the opening, then straight in
     above_outside = at_grasp.copy()
     above_outside[:7] = back_out[-1][-1]
@@ -614,7 +601,7 @@ def pivot_upright(
     outside_posture = motion.queue(above_outside, back_out[1][::-1])
     if backing is None:  # level into an opening: a lagging arm that cut the corner would come down on the rim
         motion.hold(outside_posture, 0.0, STEP_SETTLE_STEPS)
-    motion.queue(outside_posture, np.concatenate([back_out[0][::-1][1:], [posture[:7]]]))
+    motion.queue(outside_posture, np.concatenate([back_out[0][::-1][1:], [at_grasp[:7]]]))
     motion.hold(at_grasp, 1.0, GRIPPER_STEPS)
     for path in tip_paths:
         motion.queue(at_grasp, path)
@@ -681,32 +668,20 @@ def stand_on_end(motion: MotionPlanner, name: str, board: Board) -> tuple[np.nda
     board's end is. The arm posture at the grasp is chosen so that the whole tip is one chain of straight moves."""
     env = motion.env
     grasp = board_end_grasp(env, name, board)
-    points = world_points(env, name)
-    along = points @ board.up
-    low_end = points[along < along.min() + BASE_BAND]
-    pivot = low_end[low_end[:, 2].argmin()]
+    pivot = tip_pivot(world_points(env, name), board.up)
     tipping = tip_poses(grasp, pivot, board.up)
     qpos = motion.current_qpos()
-    status, postures = motion.ik(grasp, qpos, IK_RETRIES)
-    if status != "Success":
-        raise OracleFailure(f"cannot reach the raised end of '{name}': {status}")
     approach = shifted(grasp, board.up * BOARD_APPROACH)
-    for posture in sorted(postures, key=lambda p: np.abs(p[:7] - qpos[:7]).sum()):
-        at_grasp = qpos.copy()
-        at_grasp[:7] = posture[:7]
-        tip_paths = motion.straight_chain(at_grasp, tipping)
-        way_in = motion.straight_chain(at_grasp, [approach]) if tip_paths is not None else None
-        if way_in is not None:
-            break
-    else:
-        raise OracleFailure(f"cannot stand '{name}' up on its end: no arm posture allows the straight moves")
+    at_grasp, tip_paths, way_in = tip_posture(
+        motion, grasp, tipping, [approach], f"the raised end of '{name}'", f"stand '{name}' up on its end"
+    )
     before = at_grasp.copy()
     before[:7] = way_in[-1][-1]
     result = motion.plan_to_joints([before], qpos)
     if result["status"] != "Success":
         raise OracleFailure(f"cannot reach the raised end of '{name}': no motion plan ({result['status']})")
     motion.queue(qpos, result["position"])
-    motion.queue(before, np.concatenate([way_in[0][::-1][1:], [posture[:7]]]))
+    motion.queue(before, np.concatenate([way_in[0][::-1][1:], [at_grasp[:7]]]))
     motion.hold(at_grasp, 1.0, GRIPPER_STEPS)
     for path in tip_paths:
         motion.queue(at_grasp, path)
@@ -714,6 +689,37 @@ def stand_on_end(motion: MotionPlanner, name: str, board: Board) -> tuple[np.nda
     qpos[:7] = tip_paths[-1][-1]
     motion.hold(qpos, 1.0, PIVOT_HOLD_STEPS)
     return qpos, tipping[-1], float(tipping[-1][2] - pivot[2])
+
+
+def tip_pivot(points: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """The point an object of surface `points` turns about when tipped up onto its end lowest along `up`: the
+    lowest point of that end (within BASE_BAND of it along `up`)."""
+    along = points @ up
+    end = points[along < along.min() + BASE_BAND]
+    return end[end[:, 2].argmin()]
+
+
+def tip_posture(
+    motion: MotionPlanner, grasp: np.ndarray, tipping: list[np.ndarray], way_out: list[np.ndarray], part: str, tip: str
+) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray]]:
+    """The arm's joints at TCP pose `grasp` from which both the tip through the TCP poses `tipping` and the way out
+    through `way_out` are chains of straight moves (of the postures inverse kinematics finds, the nearest the current
+    joints first), with the joint paths of both chains; OracleFailure naming `part` (what is grasped) where the grasp
+    is out of reach, and `tip` where no posture allows both chains."""
+    qpos = motion.current_qpos()
+    status, postures = motion.ik(grasp, qpos, IK_RETRIES)
+    if status != "Success":
+        raise OracleFailure(f"cannot reach {part}: {status}")
+    for posture in sorted(postures, key=lambda p: np.abs(p[:7] - qpos[:7]).sum()):
+        at_grasp = qpos.copy()
+        at_grasp[:7] = posture[:7]
+        tip_paths = motion.straight_chain(at_grasp, tipping)
+        if tip_paths is None:
+            continue
+        way_paths = motion.straight_chain(at_grasp, way_out)
+        if way_paths is not None:
+            return at_grasp, tip_paths, way_paths
+    raise OracleFailure(f"cannot {tip}: no arm posture allows the straight moves")
 
 
 def lift_and_turn_upright(motion: MotionPlanner, name: str, up: np.ndarray, closing: np.ndarray) -> None:
