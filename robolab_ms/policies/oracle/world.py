@@ -195,8 +195,8 @@ class Board:
 
 def leaning_board(env: RoboLabEnv, name: str) -> Board | None:
     """Object `name` as a `Board` where it is one (no thicker than BOARD_THICKNESS and, at both ends, wider than
-    the open fingers: no hold from above fits across it) leaning in a container (`container_below`), its long axis rising
-    more than BOARD_LEAN; else None."""
+    the open fingers: no hold from above fits across it) leaning in a container (`container_below`), its long axis
+    rising more than BOARD_LEAN; else None."""
     local = env.eval_context.entries[name].points
     extents = np.ptp(local, axis=0)
     thin, middle, long = np.argsort(extents)
