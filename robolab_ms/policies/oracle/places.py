@@ -168,6 +168,7 @@ def standing_spot(
     else:
         spots = np.asarray(at, dtype=np.float64)[None]
     boxes = footprints(env, [name]) + list(taken)
+    safe = np.array([in_safe_area(spot) for spot in spots])
     container_middle = (box.max(axis=0) + box.min(axis=0)) / 2
     axis = np.cross(board.up, [0.0, 0.0, 1.0])
     stood = rotation_about(axis / np.linalg.norm(axis), float(np.arccos(np.clip(board.up[2], -1.0, 1.0))))
@@ -179,7 +180,7 @@ def standing_spot(
         across /= max(float(np.linalg.norm(across)), 1e-9)
         normal /= max(float(np.linalg.norm(normal)), 1e-9)
         half = np.abs(across) * board.width / 2 + np.abs(normal) * board.thickness / 2
-        ok = np.array([in_safe_area(spot) for spot in spots]) & clear_spots(spots, half, boxes, STAND_MARGIN)
+        ok = safe & clear_spots(spots, half, boxes, STAND_MARGIN)
         for spot in spots[ok]:
             away = spot - container_middle
             for lay in sorted((normal, -normal), key=lambda direction: -float(direction @ away)):
