@@ -114,13 +114,14 @@ class MotionPlanner:
         self.tcp_in_flange = (flange.inv() * env.tcp_pose()).sp  # fixed: the hand is rigid on the flange
 
     # -------------------------------------------------------------------------------------------- the queue
-    def mark(self) -> int:
-        """A mark of the queue as it is now, for `rewind`."""
-        return len(self.actions)
+    def mark(self) -> tuple[int, float]:
+        """A mark of the queue and the gripper command as they are now, for `rewind`."""
+        return len(self.actions), self.gripper
 
-    def rewind(self, mark: int) -> None:
-        """Drop the actions queued since `mark` (a plan given up half-way)."""
-        while len(self.actions) > mark:
+    def rewind(self, mark: tuple[int, float]) -> None:
+        """Drop the actions queued since `mark` (a plan given up half-way), and the gripper command with them."""
+        length, self.gripper = mark
+        while len(self.actions) > length:
             self.actions.pop()
 
     def action(self, qpos: np.ndarray, gripper: float) -> np.ndarray:
@@ -443,7 +444,7 @@ class MotionPlanner:
         if height is None:
             planned = self.mark()
             end = self.move(qpos, above_grasp, what, straight=False)
-            height = self._sagging_height(planned, name)
+            height = self._sagging_height(planned[0], name)
             if height is None:
                 return end
             self.rewind(planned)

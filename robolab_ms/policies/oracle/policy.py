@@ -4,8 +4,8 @@ It plans one job (one object) at a time from the state it finds, with the skill 
 for, and replays the queued actions. A held object that falls away from the closed hand ends its job's moves at
 once; when a job's moves are over it checks the task's condition for that object, and a job that did not get
 there (the object slipped, tipped or was never held) is planned again from the new state, up to JOB_RETRIES times,
-with a different grasp first. A job that cannot be planned at all goes after the others once, since moving them
-may free its way. Where the condition asks for only some of its objects, a job given up hands over to a spare one
+with a different grasp first. A job that cannot be planned at all goes after the others, since moving them may
+free its way; it uses up a retry only once none of the jobs queued can be planned. Where the condition asks for only some of its objects, a job given up hands over to a spare one
 on another of them. When it cannot go on it raises OracleFailure saying why.
 """
 
@@ -89,6 +89,7 @@ class OraclePolicy(Policy):
         self._closed_steps = 0  # actions replayed in a row with the gripper closed
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
         self._still_steps = 0  # steps the objects left where they do not belong have lain still, retries used up
+        self._unplanned: set[str] = set()  # objects whose jobs failed to be planned since the last plan that did not
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
         motion = self.motion
@@ -114,9 +115,12 @@ class OraclePolicy(Policy):
             except OracleFailure:
                 self.job = None
                 motion.actions.clear()  # a plan that failed half-way leaves nothing to replay
+                if self._defer(job):
+                    continue
                 if not self._retry(job, first=False):
                     raise
                 continue
+            self._unplanned.clear()
         action = motion.actions.popleft()
         if self.job is not None and self._slipped(action):  # the rest of the job is moot: open, check, plan again
             motion.actions.clear()
@@ -170,6 +174,16 @@ class OraclePolicy(Policy):
         undone = [job for job in self.compiled if not job_done(self.env, job)]
         queued = [job for job in undone if self._retry(job, first=False)]
         return bool(queued)
+
+    def _defer(self, job: Job) -> bool:
+        """Put `job`, which could not be planned, after the others without using up one of its retries, unless
+        every job in the queue has failed to be planned since the last plan that succeeded (moving the others may
+        free its way; nothing moves while none can be planned); whether it was put back."""
+        if not self.jobs or job.obj in self._unplanned:
+            return False
+        self._unplanned.add(job.obj)
+        self.jobs.append(job)
+        return True
 
     def _retry(self, job: Job, first: bool) -> bool:
         """Queue `job` again, at the front of the jobs when `first` (planned next), else after the others, unless
@@ -260,30 +274,43 @@ class OraclePolicy(Policy):
     def _side_hold(self, job: Job) -> bool:
         """Plan `job` (onto the table or into a container) with a side hold of its object's handle, where the object
         is a long tool in a container with its handle reaching out (`side_grips`); where both sides of it are taken,
-        the first later job whose object has a free side is planned instead and `job` goes to the back of the queue
-        (packed tools are taken from the outside in). Whether a job was planned; the next of the holds comes first
-        each time the job is planned again."""
+        or no hold from its free side has a motion plan, the first later job whose object has a free side is planned
+        instead and `job` goes to the back of the queue (packed tools are taken from the outside in, and a tool
+        reached only from a side the arm cannot get to waits until its neighbour is gone). Whether a job was planned;
+        the next of the holds comes first each time the job is planned again."""
         env = self.env
         if job.at is None and job.onto is None:
             return False
         grips = side_grips(env, job.obj)
-        if not grips and side_grips(env, job.obj, fits=True):  # walled in on both sides: first one that is not
-            later = next((other for other in self.jobs if side_grips(env, other.obj)), None)
-            if later is not None:
-                self.jobs.remove(later)
-                self.jobs.append(job)
-                self.job = later
-                try:
-                    self._hold_by_handle(later, side_grips(env, later.obj))
-                    return True
-                except OracleFailure:  # the caller queues `job` again; `later` waits its turn, its retries unused
-                    self.jobs.remove(job)
-                    self.jobs.append(later)
+        if grips:
+            try:
+                self._hold_by_handle(job, grips)
+                return True
+            except OracleFailure:
+                if not self._hold_later_instead(job):
                     raise
-        if not grips:
+                return True
+        if side_grips(env, job.obj, fits=True):  # walled in on both sides: first one that is not
+            return self._hold_later_instead(job)
+        return False
+
+    def _hold_later_instead(self, job: Job) -> bool:
+        """Plan the first later job whose object has a side hold in place of `job`, which goes to the back of the
+        queue; False (nothing planned) where there is none."""
+        env = self.env
+        later = next((other for other in self.jobs if side_grips(env, other.obj)), None)
+        if later is None:
             return False
-        self._hold_by_handle(job, grips)
-        return True
+        self.jobs.remove(later)
+        self.jobs.append(job)
+        self.job = later
+        try:
+            self._hold_by_handle(later, side_grips(env, later.obj))
+            return True
+        except OracleFailure:  # the caller queues `job` again; `later` waits its turn, its retries unused
+            self.jobs.remove(job)
+            self.jobs.append(later)
+            raise
 
     def _hold_by_handle(self, job: Job, grips: list[tuple[np.ndarray, np.ndarray]]) -> None:
         tried = self.grasps.setdefault(job.obj, [])

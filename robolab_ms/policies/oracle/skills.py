@@ -104,6 +104,11 @@ SIDE_LIFT_MIN = 0.15  # m the tool held from the side is lifted at least
 SIDE_BACK_OUT = 0.08  # m the hand backs out along its approach after letting go of a side hold
 SIDE_RETREAT = 0.05  # m the hand rises after backing out
 RISE_STEP = 0.04  # m per straight move of a lift from a side hold
+LAY_GAP = 0.005  # m above the table that a tool hanging from a side hold is let down to ...
+LAY_ANGLE = np.radians(75.0)  # ... before it is turned this far over about the edge of its lower end and let go
+LAY_BASE = 0.01  # m above a hanging tool's lowest point that its lower end's edge is looked for
+SWING_END = 0.1  # m from the farthest point of a tool swinging from a side hold that its far end spans
+SWING_WALL = 0.01  # m inside a container's outer wall face that a tool swinging from a side hold meets it
 MAX_SWING = 0.6  # rad a joint may turn in a lift's step that is not a straight move, once it has risen SIDE_LIFT_MIN
 TIP_BELOW_TOP = 0.012  # m below an upside-down object's top where the closed fingertips push it over ...
 TIP_START_GAP = 0.02  # ... starting this far from its near side ...
@@ -435,14 +440,15 @@ def side_hold_pick_and_place(
     it down onto `onto` or the table at `at`; OracleFailure where none has a plan."""
     first = min(len(tried), len(grips) - 1)
     for grasp, approach in grips[first:] + grips[:first]:  # the next hold each time the job is planned again
-        planned = motion.mark()
-        try:
-            _side_hold_moves(motion, name, grasp, approach, onto, at)
-        except OracleFailure:
-            motion.rewind(planned)
-            continue
-        tried.append(grasp)
-        return
+        for hand in (grasp, rolled(grasp)):  # the wrist turns with the swinging tool: one way may be at its limit
+            planned = motion.mark()
+            try:
+                _side_hold_moves(motion, name, hand, approach, onto, at)
+            except OracleFailure:
+                motion.rewind(planned)
+                continue
+            tried.append(grasp)
+            return
     tried.append(grips[first][0])
     raise OracleFailure(f"cannot hold '{name}' by its handle from the side: no motion plan for any hold")
 
@@ -489,14 +495,29 @@ def _side_hold_moves(
                 raise
     qpos = motion.move_straight(qpos, grasp, f"move in around the handle of '{name}'")
     motion.hold(qpos, 1.0, GRIPPER_STEPS)
-    qpos, lifted = _rise(motion, qpos, grasp, lifted[2], f"lift '{name}' by its handle")
+    qpos, lifted, hanging = _swing_lift(motion, qpos, grasp, lifted[2], name, container, f"lift '{name}' by its handle")
     way = lifted.copy()
     way[:2] = place[:2]
+    lay = None
+    if onto is None and hanging is not None:  # set down on its lower end beside `at`, laid over onto `at`
+        lay = np.array([-approach[1], approach[0], 0.0])  # level, in the plane it swung in
+        if container is not None and (np.asarray(at) - centre(env, container)[:2]) @ lay[:2] < 0:
+            lay = -lay  # laid down away from the container
+        bottom = hanging[hanging[:, 2] < hanging[:, 2].min() + LAY_BASE]
+        pivot = bottom[np.argmax(bottom @ lay)]  # the edge of its lower end that it is turned over about
+        length = float(np.ptp(world_points(env, name) @ lay))
+        way[:2] = np.asarray(at) - lay[:2] * length / 2 - pivot[:2]
+        tilted = np.cos(LAY_ANGLE) * np.array([0.0, 0.0, 1.0]) - np.sin(LAY_ANGLE) * lay
     try:
         qpos = motion.move_straight(qpos, way, f"carry '{name}' by its handle")
     except OracleFailure:
         qpos = motion.move(qpos, way, f"carry '{name}' by its handle")
-    qpos, _ = _rise(motion, qpos, way, place[2], f"lower '{name}'")
+    if lay is None:
+        qpos, place = _rise(motion, qpos, way, place[2], f"lower '{name}'")
+    else:
+        qpos, low = _rise(motion, qpos, way, LAY_GAP - pivot[2], f"lower '{name}' onto its end")
+        for place in tip_poses(low, low[:3] + pivot - [0.0, 0.0, LAY_GAP], tilted):
+            qpos = motion.move_straight(qpos, place, f"lay '{name}' down")
     motion.hold(qpos, 0.0, GRIPPER_STEPS)
     back = place.copy()
     back[:3] -= approach * SIDE_BACK_OUT
@@ -510,6 +531,76 @@ def _side_hold_moves(
         motion.move(qpos, up, f"retreat from '{name}'")
     except OracleFailure:
         pass
+
+
+def swing_angle(
+    height: float, start: float, reach: float, slope: float, depth: float, wall: float, rim: float
+) -> float:
+    """The angle (rad) below the horizontal of a tool hanging by its handle from a grip at `height` that was at
+    `start` when the tool's far end (`reach` from the grip, `slope` rad below it, its lowest point `depth` lower)
+    rested on its container's floor: the far end slides along the floor under the rising grip, stopped `wall` out
+    (horizontally) by the container's near wall until its lowest point is higher than `rim`; past the rim the tool
+    hangs straight down."""
+    floor = start - reach * np.sin(slope)
+    natural = float(np.arcsin(np.clip((height - floor) / reach, -1.0, 1.0)))
+    held_back = float(np.arccos(np.clip(wall / reach, -1.0, 1.0)))
+    angle = max(slope, min(natural, held_back))
+    if height - reach * np.sin(angle) - depth > rim:
+        return np.pi / 2
+    return angle
+
+
+def _swing_lift(
+    motion: MotionPlanner,
+    qpos: np.ndarray,
+    grasp: np.ndarray,
+    height: float,
+    name: str,
+    container: str | None,
+    what: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Queue the lift of a tool held from the side at TCP pose `grasp` to `height` in steps of RISE_STEP, the hand
+    turning about its approach axis as the tool swings down to hang from the grip (`swing_angle`), so that the
+    pads keep closing across the handle; returns the final joints and TCP pose, and where the tool's surface
+    points are from the TCP where it ends hanging straight down (None where it does not)."""
+    env = motion.env
+    points = world_points(env, name)
+    rotation = quat_to_matrix(grasp[3:])
+    approach = rotation[:, 2]
+    far = points[np.argmax(np.linalg.norm(points - grasp[:3], axis=1))] - grasp[:3]
+    far -= (far @ approach) * approach  # in the plane the tool swings in
+    reach = float(np.linalg.norm(far))
+    outward = np.array([far[0], far[1], 0.0]) / max(float(np.linalg.norm(far[:2])), 1e-9)
+    slope = float(np.arcsin(np.clip(-far[2] / reach, -1.0, 1.0)))
+    end = points[np.linalg.norm(points - grasp[:3], axis=1) > reach - SWING_END]
+    depth = float(far[2] + grasp[2] - end[:, 2].min())  # the far end's lowest point under its farthest one
+    axis = np.cross(outward, np.array([0.0, 0.0, -1.0]))  # turning `outward` towards straight down
+    wall, rim = 0.0, -np.inf
+    if container is not None:
+        box = world_points(env, container)
+        wall = float(((box[:, :2] - grasp[:2]) @ outward[:2]).min()) + SWING_WALL
+        rim = float(box[:, 2].max()) + SIDE_LIFT_CLEARANCE
+    step = previous = grasp.copy()
+    while height - step[2] > 1e-6:
+        step = step.copy()
+        step[2] += min(RISE_STEP, height - step[2])
+        turn = swing_angle(step[2], grasp[2], reach, slope, depth, wall, rim) - slope
+        if height - step[2] < 1e-6:  # lifted as high as the tool hanging straight down needs
+            turn = np.pi / 2 - slope
+        step[3:] = matrix_to_quaternion(rotation_about(axis, turn) @ rotation)
+        try:
+            qpos = motion.move_straight(qpos, step, what)
+        except OracleFailure:
+            if turn < np.pi / 2 - slope - 1e-6 or step[2] - grasp[2] < SIDE_LIFT_MIN + RISE_STEP:
+                raise
+            step = previous  # hanging, and high enough: no swing of the arm to go higher
+            break
+        previous = step
+    turn = swing_angle(step[2], grasp[2], reach, slope, depth, wall, rim) - slope
+    if turn < np.pi / 2 - slope - 1e-6 and height - step[2] > 1e-6:
+        return qpos, step, None
+    turn = np.pi / 2 - slope
+    return qpos, step, (points - grasp[:3]) @ rotation_about(axis, turn).T
 
 
 def _rise(
