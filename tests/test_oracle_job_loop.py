@@ -122,3 +122,54 @@ def test_the_oracle_waits_for_an_object_still_moving_before_it_gives_up(tmp_path
     the condition wants it 36 steps after the oracle's last move (a fixed wait of 30 steps gave up 5 steps early)."""
     result, episode = _episode(tmp_path, "TakeMeasuringSpoonOut", 4)
     assert result.error is None and result.success
+
+
+def test_a_job_that_cannot_be_planned_waits_for_the_others_without_using_a_retry(oracle_on):
+    """A job whose plan fails goes after the others and keeps its retries while another job can still be planned
+    (moving that one may free its way: a hammer reached only from the side of a neighbour still in the bin); once
+    every job queued has failed to plan since the last plan that worked, failures use up retries again."""
+    from robolab_ms.policies.oracle import OracleFailure
+
+    env, oracle = oracle_on("AppleAndYogurtInBowl")
+    first, second = (job.obj for job in oracle.compiled)
+    planned = []
+
+    def plan(job):  # the first job fails until the second has been planned; the plans queue one still step
+        planned.append(job.obj)
+        if job.obj == first and second not in planned:
+            raise OracleFailure("no motion plan")
+        oracle.job = None
+        oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
+
+    oracle._plan_job = plan
+    oracle.act({})
+    oracle.act({})
+    assert planned == [first, second, first]
+    assert oracle.retries == {}
+
+    oracle.reset("", env.action_space, seed=0)
+    planned.clear()
+
+    def never(job):
+        planned.append(job.obj)
+        raise OracleFailure("no motion plan")
+
+    oracle._plan_job = never
+    with pytest.raises(OracleFailure):
+        oracle.act({})
+    assert planned[:2] == [first, second]  # each waits once for the other, then the retries are used up
+    assert oracle.retries == {first: 2, second: 2}
+
+
+def test_a_plan_given_up_half_way_leaves_the_gripper_command_as_it_was(oracle_on):
+    """`rewind` drops the actions of a plan given up after its grasp closed the hand, and the closed command with
+    them: the next plan starts with the hand open (it had closed on nothing at the start of the episode)."""
+    env, oracle = oracle_on("BananaInBowl")
+    motion = oracle.motion
+    planned = motion.mark()
+    motion.hold(motion.current_qpos(), 1.0, 3)
+    assert motion.gripper == 1.0 and len(motion.actions) == 3
+    motion.rewind(planned)
+    assert motion.gripper == 0.0 and len(motion.actions) == 0
+    motion.hold(motion.current_qpos(), motion.gripper, 1)
+    assert motion.actions[0][7] == 0.0
