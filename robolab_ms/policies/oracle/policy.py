@@ -5,7 +5,8 @@ for, and replays the queued actions. A held object that falls away from the clos
 once; when a job's moves are over it checks the task's condition for that object, and a job that did not get
 there (the object slipped, tipped or was never held) is planned again from the new state, up to JOB_RETRIES times,
 with a different grasp first. A job that cannot be planned at all goes after the others, since moving them may
-free its way; it uses up a retry only once none of the jobs queued can be planned. Where the condition asks for only some of its objects, a job given up hands over to a spare one
+free its way; the first DEFERRALS times it waits without using up a retry, unless none of the jobs queued can
+be planned. Where the condition asks for only some of its objects, a job given up hands over to a spare one
 on another of them. When it cannot go on it raises OracleFailure saying why.
 """
 
@@ -39,6 +40,7 @@ if TYPE_CHECKING:
     from robolab_ms.envs.robolab_env import RoboLabEnv
 
 TIPS = 3  # times an upside-down object is pushed over before its job gives up
+DEFERRALS = 1  # times a job that cannot be planned may wait for the others without using up a retry
 JOB_RETRIES = 2  # times a job whose object did not get where the condition wants it is planned again
 JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
 GIVE_UP_STEPS = 30  # control steps the objects not where they belong lie still, once every job's retries are used
@@ -89,6 +91,7 @@ class OraclePolicy(Policy):
         self._closed_steps = 0  # actions replayed in a row with the gripper closed
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
         self._still_steps = 0  # steps the objects left where they do not belong have lain still, retries used up
+        self._deferred: dict[str, int] = {}  # per object: times its job waited for the others without a retry
         self._unplanned: set[str] = set()  # objects whose jobs failed to be planned since the last plan that did not
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
@@ -178,10 +181,12 @@ class OraclePolicy(Policy):
     def _defer(self, job: Job) -> bool:
         """Put `job`, which could not be planned, after the others without using up one of its retries, unless
         every job in the queue has failed to be planned since the last plan that succeeded (moving the others may
-        free its way; nothing moves while none can be planned); whether it was put back."""
-        if not self.jobs or job.obj in self._unplanned:
+        free its way; nothing moves while none can be planned) or it has waited so DEFERRALS times; whether it was
+        put back."""
+        if not self.jobs or job.obj in self._unplanned or self._deferred.get(job.obj, 0) >= DEFERRALS:
             return False
         self._unplanned.add(job.obj)
+        self._deferred[job.obj] = self._deferred.get(job.obj, 0) + 1
         self.jobs.append(job)
         return True
 

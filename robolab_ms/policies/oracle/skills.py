@@ -427,6 +427,10 @@ def draw_nearer(motion: MotionPlanner, qpos: np.ndarray, grasp: np.ndarray, name
 
 
 # ------------------------------------------------------------------------------------------------ side holds
+class LiftFailure(OracleFailure):
+    """A side hold's plan failed after the hand reached the handle: in the lift, the carry or the set-down."""
+
+
 def side_hold_pick_and_place(
     motion: MotionPlanner,
     name: str,
@@ -444,9 +448,12 @@ def side_hold_pick_and_place(
             planned = motion.mark()
             try:
                 _side_hold_moves(motion, name, hand, approach, onto, at)
+            except LiftFailure:
+                motion.rewind(planned)
+                continue  # the hand half-turned may have the room to turn with the tool
             except OracleFailure:
                 motion.rewind(planned)
-                continue
+                break  # the hand half-turned reaches the handle no better
             tried.append(grasp)
             return
     tried.append(grips[first][0])
@@ -495,7 +502,29 @@ def _side_hold_moves(
                 raise
     qpos = motion.move_straight(qpos, grasp, f"move in around the handle of '{name}'")
     motion.hold(qpos, 1.0, GRIPPER_STEPS)
-    qpos, lifted, hanging = _swing_lift(motion, qpos, grasp, lifted[2], name, container, f"lift '{name}' by its handle")
+    try:
+        _lift_and_set_down(motion, qpos, name, grasp, approach, lifted[2], place, container, at, onto)
+    except OracleFailure as failure:
+        raise LiftFailure(str(failure)) from failure
+
+
+def _lift_and_set_down(
+    motion: MotionPlanner,
+    qpos: np.ndarray,
+    name: str,
+    grasp: np.ndarray,
+    approach: np.ndarray,
+    height: float,
+    place: np.ndarray,
+    container: str | None,
+    at: tuple[float, float] | None,
+    onto: str | None,
+) -> None:
+    """Queue the rest of a side hold's moves once the hand has closed on the handle at TCP pose `grasp`: the lift
+    to `height` (`_swing_lift`), the carry, the set-down at `place` (a hanging tool laid over onto the table at
+    `at`), the release and the way back out along `approach`."""
+    env = motion.env
+    qpos, lifted, hanging = _swing_lift(motion, qpos, grasp, height, name, container, f"lift '{name}' by its handle")
     way = lifted.copy()
     way[:2] = place[:2]
     lay = None
