@@ -18,6 +18,24 @@ def _episode(tmp_path, task: str, seed: int):
     return results[0], episodes[0]
 
 
+def _scripted_plans(oracle, fails) -> list[str]:
+    """Replace `oracle`'s planning: every job planned is recorded in the list returned; a job for which
+    `fails(name, planned)` is true raises OracleFailure, the others queue one still step."""
+    from robolab_ms.policies.oracle import OracleFailure
+
+    planned = []
+
+    def plan(job):
+        planned.append(job.obj)
+        if fails(job.obj, planned):
+            raise OracleFailure("no motion plan")
+        oracle.job = None
+        oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
+
+    oracle._plan_job = plan
+    return planned
+
+
 @pytest.fixture
 def oracle_on():
     """`oracle_on(task)`: the task's environment reset at seed 0 and the oracle bound to it and reset; closed after
@@ -70,16 +88,7 @@ def test_a_job_given_up_hands_over_to_a_spare_object(oracle_on):
 
     env, oracle = oracle_on("PutTwoMugsOnShelf")
     assert [job.obj for job in oracle.compiled] == ["ceramic_mug", "mug"]
-    planned = []
-
-    def plan(job):  # the white mug's job never plans; the others queue one still step
-        planned.append(job.obj)
-        if job.obj == "mug":
-            raise OracleFailure("no motion plan")
-        oracle.job = None
-        oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
-
-    oracle._plan_job = plan
+    planned = _scripted_plans(oracle, lambda name, planned: name == "mug")  # the white mug's job never plans
     oracle.act({})
     oracle.act({})
     assert planned == ["ceramic_mug"] + ["mug"] * (JOB_RETRIES + 1) + ["mug_01"]
@@ -125,36 +134,21 @@ def test_the_oracle_waits_for_an_object_still_moving_before_it_gives_up(tmp_path
 
 
 def test_a_job_that_cannot_be_planned_waits_for_the_others_without_using_a_retry(oracle_on):
-    """A job whose plan fails goes after the others and keeps its retries while another job can still be planned
-    (moving that one may free its way: a hammer reached only from the side of a neighbour still in the bin); once
-    every job queued has failed to plan since the last plan that worked, failures use up retries again."""
+    """A job whose plan fails goes after the others once and keeps its retries while another job can still be
+    planned (moving that one may free its way: a hammer reached only from the side of a neighbour still in the bin);
+    once every job queued has failed to plan since the last plan that worked, failures use up retries again."""
     from robolab_ms.policies.oracle import OracleFailure
 
     env, oracle = oracle_on("AppleAndYogurtInBowl")
     first, second = (job.obj for job in oracle.compiled)
-    planned = []
-
-    def plan(job):  # the first job fails until the second has been planned; the plans queue one still step
-        planned.append(job.obj)
-        if job.obj == first and second not in planned:
-            raise OracleFailure("no motion plan")
-        oracle.job = None
-        oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
-
-    oracle._plan_job = plan
+    planned = _scripted_plans(oracle, lambda name, planned: name == first and second not in planned)
     oracle.act({})
     oracle.act({})
     assert planned == [first, second, first]
     assert oracle.retries == {}
 
     oracle.reset("", env.action_space, seed=0)
-    planned.clear()
-
-    def never(job):
-        planned.append(job.obj)
-        raise OracleFailure("no motion plan")
-
-    oracle._plan_job = never
+    planned = _scripted_plans(oracle, lambda name, planned: True)
     with pytest.raises(OracleFailure):
         oracle.act({})
     assert planned[:2] == [first, second]  # each waits once for the other, then the retries are used up
