@@ -92,7 +92,7 @@ class OraclePolicy(Policy):
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
         self._still_steps = 0  # steps the objects left where they do not belong have lain still, retries used up
         self._deferred: dict[str, int] = {}  # per object: times its job waited for the others without a retry
-        self._unplanned: set[str] = set()  # objects whose jobs failed to be planned since the last plan that did not
+        self._unplanned: set[str] = set()  # objects whose jobs failed to plan since the last plan that worked
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
         motion = self.motion
