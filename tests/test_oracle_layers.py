@@ -337,3 +337,27 @@ def test_a_screw_motion_that_spins_the_arm_round_is_refused(jugs):
     assert np.abs(np.diff(spin["position"], axis=0)).max(axis=1).sum() > MAX_SCREW_TRAVEL
     assert motion.screw(high, start)["status"] != "Success"
     assert motion.screw(low, start)["status"] == "Success"
+
+
+def test_a_screw_motion_that_crawls_is_refused():
+    """A screw motion that moves the joints little but lasts longer than MAX_SCREW_SECONDS (tiny steps near a
+    singularity) is refused like one that spins the arm round; a short one is kept."""
+    from types import SimpleNamespace
+
+    from robolab_ms.policies.oracle.motion import MAX_SCREW_SECONDS, MotionPlanner
+
+    steps = {"count": 0}
+
+    def plan_screw(flange_pose, qpos, time_step):
+        path = np.linspace(qpos[:7], qpos[:7] + 0.07, steps["count"])  # 0.07 rad on every joint in all
+        return {"status": "Success", "position": path}
+
+    motion = MotionPlanner.__new__(MotionPlanner)
+    motion.env = SimpleNamespace(control_freq=15)
+    motion.planner = SimpleNamespace(plan_screw=plan_screw)
+    start = np.zeros(9)
+    steps["count"] = int(MAX_SCREW_SECONDS * 15) + 50  # a 4-cm lift that took 29 s in ToolsPickingAllHammers
+    refused = motion.screw(np.zeros(7), start)
+    assert refused["status"] != "Success" and "crawls" in refused["status"]
+    steps["count"] = 30  # two seconds
+    assert motion.screw(np.zeros(7), start)["status"] == "Success"

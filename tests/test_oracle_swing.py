@@ -78,3 +78,25 @@ def test_a_hammer_held_from_the_side_hangs_from_the_pads_and_is_laid_on_the_tabl
         assert not np.all((middle >= low) & (middle <= high))  # outside the bin
     finally:
         env.close()
+
+
+def test_a_side_hold_may_start_along_the_handle_beyond_its_free_end(monkeypatch):
+    """The hand starts a side hold level across the handle first, nearest first; last, on the handle's line
+    beyond its free end with the hand turned as it holds, so that the open fingers slide on along the handle
+    (where the arm cannot point across it from further out)."""
+    from robolab_ms.policies.oracle import skills
+
+    end, direction = np.array([0.45, 0.3, 0.2]), np.array([np.cos(0.35), 0.0, -np.sin(0.35)])  # sloping into a bin
+    monkeypatch.setattr(skills, "handle_part", lambda env, name: (end, direction, 0.12, 0.015))
+    grasp = np.concatenate([end + direction * 0.08, [1.0, 0.0, 0.0, 0.0]])
+    approach = np.array([0.0, -1.0, 0.0])
+    starts = skills._side_hold_starts(None, "hammer", grasp, approach)
+    assert len(starts) == len(skills.SIDE_APPROACHES) + 1
+    for start, distance in zip(starts, skills.SIDE_APPROACHES):
+        assert np.allclose(start[:3], grasp[:3] - approach * distance)
+    slide = starts[-1]
+    assert np.allclose(slide[3:], grasp[3:])  # the hand as it holds
+    offset = slide[:3] - end
+    assert np.allclose(offset, -direction * skills.SIDE_SLIDE_PAST)  # on the handle's line, past its free end
+    monkeypatch.setattr(skills, "handle_part", lambda env, name: None)
+    assert len(skills._side_hold_starts(None, "hammer", grasp, approach)) == len(skills.SIDE_APPROACHES)

@@ -47,6 +47,8 @@ STRAIGHT_TURN = 0.05  # ... or rad of turn between them
 MAX_JOINT_JUMP = 0.25  # rad a joint may change between two waypoints of a straight move (more: a flip, not a line)
 MAX_SCREW_TRAVEL = 12.0  # rad the joints may travel in all along mplib's screw motion (more: it spins the arm round
 # near a singularity, a move longer than an episode)
+MAX_SCREW_SECONDS = 20.0  # s one screw motion may last (more: it crawls in tiny steps near a singularity, 30 to 40 s
+# for a 4-cm lift, where inverse kinematics and a joint path take a second or two)
 HELD_FIXTURE_MARGIN = 0.015  # m kept between a carried object and a fixture (it swings a little in the fingers)
 SAMPLED_PLANNING_TIME = 2.0  # s RRT-Connect may take where no straight line in joint space is free
 OPEN_FINGER_QPOS = 0.04  # the planning model's finger joints, kept open
@@ -260,12 +262,16 @@ class MotionPlanner:
 
     def screw(self, flange_pose: np.ndarray, qpos: np.ndarray) -> Plan:
         """mplib's screw motion of the flange to `flange_pose` (near the edge of the workspace, where it may stop a
-        centimetre short), refused where its joints travel more than MAX_SCREW_TRAVEL."""
+        centimetre short), refused where its joints travel more than MAX_SCREW_TRAVEL or it lasts longer than
+        MAX_SCREW_SECONDS."""
         result = self.planner.plan_screw(flange_pose, qpos, time_step=self.time_step)
         if result["status"] == "Success" and len(result["position"]) > 1:
             travel = float(np.abs(np.diff(np.asarray(result["position"]), axis=0)).max(axis=1).sum())
             if travel > MAX_SCREW_TRAVEL:
                 return {"status": f"the screw motion spins the arm round ({travel:.0f} rad of joint travel)"}
+            seconds = len(result["position"]) * self.time_step
+            if seconds > MAX_SCREW_SECONDS:
+                return {"status": f"the screw motion crawls ({seconds:.0f} s for one move)"}
         return result
 
     def straight_waypoints(self, flange_pose: np.ndarray, qpos: np.ndarray) -> np.ndarray | None:

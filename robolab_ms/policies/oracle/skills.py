@@ -71,6 +71,7 @@ from robolab_ms.policies.oracle.world import (
     centre,
     container_below,
     fixture_boxes,
+    handle_part,
     is_heavy,
     is_tool,
     object_bottom,
@@ -99,6 +100,7 @@ APPROACH_BACKS = (0.0, 0.02, 0.04)  # ... at each height first over the grasp, t
 DRAW_RISE = 0.01  # m a far tool is raised off the floor while it is drawn nearer ...
 DRAW_MAX = 0.05  # ... by at most this far
 SIDE_APPROACHES = (0.10, 0.07, 0.05)  # m from a side hold, level across the handle, where the hand starts in
+SIDE_SLIDE_PAST = 0.03  # m beyond a handle's free end from where the hand may slide on along it into a side hold
 SIDE_LIFT_CLEARANCE = 0.03  # m the tool, hanging straight down from a side hold, is lifted above its container
 SIDE_LIFT_MIN = 0.15  # m the tool held from the side is lifted at least
 SIDE_BACK_OUT = 0.08  # m the hand backs out along its approach after letting go of a side hold
@@ -482,9 +484,8 @@ def _side_hold_moves(
     hanging = float(np.linalg.norm(world_points(env, name) - grasp[:3], axis=1).max())  # should it swing down
     lifted[2] = max(grasp[2] + SIDE_LIFT_MIN, rim + SIDE_LIFT_CLEARANCE + hanging)
     qpos = motion.current_qpos()
-    for distance in SIDE_APPROACHES:
-        start = grasp.copy()
-        start[:3] -= approach * distance
+    starts = _side_hold_starts(env, name, grasp, approach)
+    for start in starts:
         high = start.copy()
         high[2] = lifted[2]
         planned = motion.mark()
@@ -498,7 +499,7 @@ def _side_hold_moves(
             qpos = motion.move(qpos, start, f"reach beside the handle of '{name}'", straight=False)
             break
         except OracleFailure:
-            if distance == SIDE_APPROACHES[-1]:
+            if start is starts[-1]:
                 raise
     qpos = motion.move_straight(qpos, grasp, f"move in around the handle of '{name}'")
     motion.hold(qpos, 1.0, GRIPPER_STEPS)
@@ -506,6 +507,25 @@ def _side_hold_moves(
         _lift_and_set_down(motion, qpos, name, grasp, approach, lifted[2], place, container, at, onto)
     except OracleFailure as failure:
         raise LiftFailure(str(failure)) from failure
+
+
+def _side_hold_starts(env: RoboLabEnv, name: str, grasp: np.ndarray, approach: np.ndarray) -> list[np.ndarray]:
+    """The TCP poses a side hold at `grasp` may start in from, each with the hand as it holds, nearest the robot's
+    reach first: level across the handle, SIDE_APPROACHES back along `approach`; then along the handle from
+    SIDE_SLIDE_PAST beyond its free end, the open fingers sliding on over it (where the arm cannot point across
+    the handle from further out, beside a wall it lies against)."""
+    starts = []
+    for distance in SIDE_APPROACHES:
+        start = grasp.copy()
+        start[:3] -= approach * distance
+        starts.append(start)
+    handle = handle_part(env, name)
+    if handle is not None:
+        end, direction, _, _ = handle
+        start = grasp.copy()
+        start[:3] -= direction * (float((grasp[:3] - end) @ direction) + SIDE_SLIDE_PAST)
+        starts.append(start)
+    return starts
 
 
 def _lift_and_set_down(
