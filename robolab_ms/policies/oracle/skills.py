@@ -510,8 +510,8 @@ def _side_hold_moves(
 
 
 def _side_hold_starts(env: RoboLabEnv, name: str, grasp: np.ndarray, approach: np.ndarray) -> list[np.ndarray]:
-    """The TCP poses a side hold at `grasp` may start in from, each with the hand as it holds, nearest the robot's
-    reach first: level across the handle, SIDE_APPROACHES back along `approach`; then along the handle from
+    """The TCP poses a side hold at `grasp` may start in from, each with the hand as it holds, in the order they are
+    tried: level across the handle, SIDE_APPROACHES back along `approach`; then along the handle from
     SIDE_SLIDE_PAST beyond its free end, the open fingers sliding on over it (where the arm cannot point across
     the handle from further out, beside a wall it lies against)."""
     starts = []
