@@ -16,7 +16,17 @@ from robolab_ms.policies.oracle.places import (
     spot_beside,
     standing_spot,
 )
-from robolab_ms.policies.oracle.world import centre, covered, leaning_board, lying_container, tilt, world_points
+from robolab_ms.policies.oracle.world import (
+    centre,
+    covered,
+    covering_boxes,
+    fixture_boxes,
+    leaning_board,
+    lying_container,
+    open_side_depths,
+    tilt,
+    world_points,
+)
 from robolab_ms.tasks.predicates import PREDICATES, per_object
 
 if TYPE_CHECKING:
@@ -87,6 +97,7 @@ def jobs_moving(env: RoboLabEnv, objects: list[str]) -> list[Job]:
     if predicate in ("outside_of", "outside_of_and_on_surface"):
         env.eval_context.refresh()
         objects = top_first(env, objects)  # a stack is taken apart from the top
+        objects = way_out_first(env, objects)  # on a shelf level, the one in front before the one behind it
         footprints: list[np.ndarray] = []
         for name in objects:  # an object taken off a shelf level goes down near where it is, not behind the shelf
             near = shelf_exit_spot(env, name) if not env.scene.gpu_sim_enabled and covered(env, name) else None
@@ -119,6 +130,23 @@ def largest_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
     order."""
     areas = {name: float(np.prod(np.ptp(world_points(env, name)[:, :2], axis=0))) for name in objects}
     return sorted(objects, key=lambda name: -areas[name])
+
+
+def way_out_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
+    """`objects` in their order, except that those under a shelf level (see `world.covered`) swap places among
+    themselves to come nearest the level's open side first: one in front stands in the way of the hand reaching for
+    one behind it. Equal ones keep their order."""
+    boxes = fixture_boxes(env)
+    depths = {}
+    for name in objects:
+        points = world_points(env, name)
+        if covering_boxes(points, boxes):
+            depths[name] = open_side_depths(points, boxes)[0][0]
+    slots = [index for index, name in enumerate(objects) if name in depths]
+    ordered = list(objects)
+    for index, name in zip(slots, sorted((objects[index] for index in slots), key=lambda name: depths[name])):
+        ordered[index] = name
+    return ordered
 
 
 def top_first(env: RoboLabEnv, objects: list[str]) -> list[str]:

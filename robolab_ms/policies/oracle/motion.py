@@ -404,10 +404,10 @@ class MotionPlanner:
             raise OracleFailure(f"cannot {what}: no straight move")
         return self.queue(qpos, paths[0])
 
-    def can_lower(self, over: np.ndarray, place: np.ndarray) -> bool:
-        """Whether the arm reaches TCP pose `over` (by inverse kinematics) and from there moves straight to
-        `place`."""
-        status, postures = self.ik(over, self.current_qpos())
+    def can_lower(self, over: np.ndarray, place: np.ndarray, starts: int | None = None) -> bool:
+        """Whether the arm reaches TCP pose `over` (by inverse kinematics, from the planner's own random starts or
+        `starts` of them) and from there moves straight to `place`."""
+        status, postures = self.ik(over, self.current_qpos(), starts)
         if status != "Success":
             return False
         start = self.current_qpos()

@@ -61,6 +61,7 @@ PLACE_CELL = 0.01  # m between the rays that map a container's floor or a plate 
 PLACE_FLATNESS = 0.02  # m a place spot may rise above the lowest point of the container or plate
 PLACE_MARGIN = 0.015  # m kept between an object set down in a container or on a plate and what is already there
 PLACE_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees the hand may turn to fit a place
+TABLE_TURNS = (0, 180, 90, -90, 135, -135, 45, -45)  # degrees a held object may turn about the vertical over its spot
 PLACE_MIDDLE = 0.04  # m: a long object too big for a floor has at least this much around its middle over it
 PLACE_REACH_TRIES = 12  # free spots tried for reach where the middle is out of reach ...
 PLACE_REACH_MARGIN = 0.04  # ... and the one chosen this much nearer the robot than the farthest reached, if free
@@ -321,6 +322,30 @@ def place_pose(
         (x, y), top = np.asarray(at) + held_offset, 0.0
     place = np.concatenate([[x, y, top + RELEASE_CLEARANCE + held_bottom], grasp[3:]])
     return place, over_place(env, place, held_bottom, name, onto)[0]
+
+
+def turned_table_place(
+    env: RoboLabEnv,
+    name: str,
+    at: tuple[float, float],
+    grasp: np.ndarray,
+    held_bottom: float,
+    held_offset: np.ndarray,
+    reachable: Reachable,
+) -> Spot | None:
+    """`place_pose` on the table at `at`, with the held object (and the hand with it) turned about the vertical
+    through the middle of its footprint by TABLE_TURNS in turn: a hand that leans out of a shelf towards the robot
+    cannot set an object down near the robot's base as it holds it, but turned half round it leans away from the
+    robot. The first release pose and the pose above it that `reachable` (the least turn first, the object as it
+    lies first); None where no turn is reached."""
+    for turn in TABLE_TURNS:
+        spin = rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
+        turned_grasp = np.concatenate([grasp[:3], matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))])
+        offset = spin[:2, :2] @ np.asarray(held_offset)[:2]
+        place, over = place_pose(env, name, None, at, turned_grasp, held_bottom, offset)
+        if reachable(over, place):
+            return place, over
+    return None
 
 
 def over_place(env: RoboLabEnv, place: np.ndarray, held_bottom: float, held: str, onto: str | None) -> list[np.ndarray]:

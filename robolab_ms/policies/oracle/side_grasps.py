@@ -30,6 +30,7 @@ from robolab_ms.policies.oracle.grasps import GRASP_DEPTH, WALL_GRASP_DEPTH
 from robolab_ms.policies.oracle.gripper import (
     HAND_FIXTURE_MARGIN,
     MAX_GRASP_WIDTH,
+    PAD_BELOW_TCP,
     PAD_HALF_WIDTH,
     hand_clear,
     hand_points,
@@ -69,6 +70,7 @@ FRONT_PAD_BITE = 0.003  # m the pads' lower edge reaches below a thin part's top
 FRONT_PAD_DIG = 0.005  # ... this far below the part's bottom (it rests a little above the level; the pad gives)
 FRONT_LIFT = 0.015  # m an object is lifted off its level before it is pulled out
 FRONT_ENOUGH = 4  # front grasps found at one lean that end the search
+RIM_CLEARANCE = 0.01  # m between the open pads' lowest corner and a wall's rim where the hand comes down onto it
 PULL_STEP = 0.02  # m between the poses tried when moving a hand out of a shelf ...
 PULL_MAX = 0.4  # ... at most this far
 # side holds of a handle
@@ -135,9 +137,9 @@ def turned_rim_grasps(env: RoboLabEnv, name: str, grasp: np.ndarray) -> list[np.
 # ------------------------------------------------------------------------------------------------ shelves
 @dataclass(frozen=True)
 class FrontGrasp:
-    """A grasp reached from the open side of a shelf: the TCP pose, the pose it comes in from along its own axis,
-    the pose outside the shelf (at the height of that one) from which the hand moves in, and the horizontal
-    direction (unit x, y) in which the held object is pulled out."""
+    """A grasp reached from the open side of a shelf: the TCP pose, the pose it comes in from (back along its own
+    axis, or straight over it above a wall's rim), the pose outside the shelf (at the height of that one) from
+    which the hand moves in, and the horizontal direction (unit x, y) in which the held object is pulled out."""
 
     pose: np.ndarray
     approach: np.ndarray
@@ -171,8 +173,9 @@ def moved_out(pose: np.ndarray, out: np.ndarray, boxes: list[Box], held: np.ndar
 def front_grasps(env: RoboLabEnv, name: str) -> list[FrontGrasp]:
     """Grasps of a covered object (see `world.covered`) by a hand that leans out of the shelf towards the robot,
     least leaning first, each with the hand clear of every fixture at the grasp, on its way in and on the way out.
-    A standing container too wide for the fingers is held by its wall at the rim, on the side across the way out;
-    a long object near its end on the open side; anything else across its middle."""
+    A standing container too wide for the fingers is held by its wall at the rim, on the side across the way out,
+    the hand coming down onto it from over the rim where it fits there (those first); a long object near its end
+    on the open side; anything else across its middle."""
     env.eval_context.refresh()
     boxes = fixture_boxes(env)
     points = world_points(env, name)
@@ -182,7 +185,7 @@ def front_grasps(env: RoboLabEnv, name: str) -> list[FrontGrasp]:
     rim = points[points[:, 2] > top - 0.01]
     rim_centre = (rim[:, :2].max(axis=0) + rim[:, :2].min(axis=0)) / 2
     radius = float(np.linalg.norm(rim[:, :2] - rim_centre, axis=1).max())
-    found = []
+    found, over_rims = [], []  # those come down onto a wall from over the rim go first
     for tilt_deg in FRONT_TILTS:
         lean_angle = np.radians(tilt_deg)
         for turn, side_out in ((turn, side_out) for side_out in sides for turn in FRONT_TURNS):
@@ -221,17 +224,30 @@ def front_grasps(env: RoboLabEnv, name: str) -> list[FrontGrasp]:
             for position, side in candidates:
                 rotation = leaning_rotation(side, lean, lean_angle)
                 pose = np.concatenate([position, matrix_to_quaternion(rotation)])
-                approach = shifted(pose, -rotation[:, 2] * FRONT_APPROACH)
-                if not (hand_clear(pose, boxes) and hand_clear(approach, boxes)):
+                if not (hand_clear(pose, boxes) and hand_clear(raised(pose, FRONT_LIFT), boxes)):
                     continue
-                if not hand_clear(raised(pose, FRONT_LIFT), boxes):
-                    continue
-                entry = moved_out(approach, lean, boxes)
-                if entry is not None:
-                    found.append(FrontGrasp(pose, approach, entry, lean))
-        if len(found) >= FRONT_ENOUGH:
+                # a wall is best come down onto from over the rim: in along the hand's axis, the pad that goes
+                # inside sweeps across the near rim and pushes the container deeper into the shelf
+                over_rim = (
+                    raised(pose, WALL_GRASP_DEPTH + pad_corner_drop(lean_angle) + RIM_CLEARANCE) if wall else None
+                )
+                along_axis = shifted(pose, -rotation[:, 2] * FRONT_APPROACH)
+                for approach in (over_rim, along_axis):
+                    if approach is None or not hand_clear(approach, boxes):
+                        continue
+                    entry = moved_out(approach, lean, boxes)
+                    if entry is not None:
+                        (over_rims if approach is over_rim else found).append(FrontGrasp(pose, approach, entry, lean))
+                        break
+        if len(over_rims) + len(found) >= FRONT_ENOUGH:
             break
-    return found
+    return over_rims + found
+
+
+def pad_corner_drop(lean_angle: float) -> float:
+    """How far (m) below the TCP the open pads' lowest corner reaches with the hand leaning `lean_angle` rad from
+    pointing down."""
+    return PAD_BELOW_TCP * np.cos(lean_angle) + PAD_HALF_WIDTH * np.sin(lean_angle)
 
 
 def pulled_out(env: RoboLabEnv, name: str, grasp: FrontGrasp) -> np.ndarray | None:

@@ -54,6 +54,7 @@ from robolab_ms.policies.oracle.places import (
     shared_place,
     standing_spot,
     turned_place,
+    turned_table_place,
 )
 from robolab_ms.policies.oracle.side_grasps import (
     FRONT_LIFT,
@@ -365,6 +366,10 @@ def _front_attempt(
     if onto is not None or at is not None:
         spread = onto is not None and not centred
         spot = free_place(env, name, onto, grasp.pose, held_bottom, motion.can_lower) if spread else None
+        if onto is None:  # on the table: the object turned about the vertical where the hand cannot lower it as held
+            # (reached as the carry reaches it: inverse kinematics from many starts, then straight down)
+            reach = lambda over, place: motion.can_lower(over, place, starts=IK_RETRIES)  # noqa: E731
+            spot = turned_table_place(env, name, at, grasp.pose, held_bottom, held_offset, reach)
         place, above_place = (
             spot if spot is not None else place_pose(env, name, onto, at, grasp.pose, held_bottom, held_offset)
         )

@@ -516,9 +516,10 @@ def covered(env: RoboLabEnv, name: str, boxes: list[Box] | None = None) -> bool:
     return bool(covering_boxes(world_points(env, name), boxes))
 
 
-def open_sides(points: np.ndarray, boxes: list[Box]) -> list[np.ndarray]:
-    """Horizontal directions (unit x, y) out of the shelf whose level covers the object of world `points`: the
-    outward normals of the covering board's sides that face the robot, the side nearest the object first."""
+def open_side_depths(points: np.ndarray, boxes: list[Box]) -> list[tuple[float, np.ndarray]]:
+    """The sides of the shelf level that covers the object of world `points`, by which a hand may come in to it:
+    (depth, face) per side of the covering board that faces the robot, where face is the side's outward normal
+    (unit x, y) and depth how far (m) the object's nearest point lies in from that side; the nearest side first."""
     rotation, middle, half = covering_boxes(points, boxes)[0]
     towards_robot = -points[:, :2].mean(axis=0) / np.linalg.norm(points[:, :2].mean(axis=0))
     sides = []
@@ -529,4 +530,10 @@ def open_sides(points: np.ndarray, boxes: list[Box]) -> list[np.ndarray]:
             if face @ towards_robot > 0.0:
                 depth = float(middle[:2] @ face + half[axis] - (points[:, :2] @ face).max())
                 sides.append((depth, face))
-    return [face for _, face in sorted(sides, key=lambda item: item[0])]
+    return sorted(sides, key=lambda item: item[0])
+
+
+def open_sides(points: np.ndarray, boxes: list[Box]) -> list[np.ndarray]:
+    """Horizontal directions (unit x, y) out of the shelf whose level covers the object of world `points`: the
+    outward normals of the covering board's sides that face the robot, the side nearest the object first."""
+    return [face for _, face in open_side_depths(points, boxes)]

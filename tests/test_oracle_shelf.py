@@ -1,0 +1,91 @@
+"""The oracle's pieces for taking objects off a shelf level, on their own: the order of the jobs (the object nearest
+the level's open side first, `compile.way_out_first`) and the set-down spot on the table with the held object
+turned about the vertical (`places.turned_table_place`), on TakeMugsOffOfShelf's rack at seed 0 (a white mug in
+front of a blue one on the middle level, 11 cm under the level above)."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from robolab_ms.policies.oracle.compile import way_out_first
+from robolab_ms.policies.oracle.geometry import quat_to_matrix, rotation_about
+from robolab_ms.policies.oracle.places import TABLE_TURNS, place_pose, turned_table_place
+from robolab_ms.policies.oracle.side_grasps import front_grasps
+from robolab_ms.policies.oracle.world import centre, fixture_boxes, object_bottom, open_side_depths, world_points
+from robolab_ms.tasks.spec import load_task
+
+
+@pytest.fixture(scope="module")
+def rack():
+    env = gym.make(load_task("TakeMugsOffOfShelf").env_id, obs_mode="state_dict", render_backend="cpu")
+    env.reset(seed=0)
+    env.unwrapped.eval_context.refresh()
+    yield env.unwrapped
+    env.close()
+
+
+def test_the_mug_in_front_is_taken_off_the_level_first(rack):
+    boxes = fixture_boxes(rack)
+    depth = {name: open_side_depths(world_points(rack, name), boxes)[0][0] for name in ("ceramic_mug", "mug")}
+    assert depth["mug"] < depth["ceramic_mug"]  # the white mug stands nearer the open side
+    assert way_out_first(rack, ["ceramic_mug", "mug"]) == ["mug", "ceramic_mug"]
+    assert way_out_first(rack, ["mug", "ceramic_mug"]) == ["mug", "ceramic_mug"]
+
+
+def test_objects_not_under_a_level_keep_their_places_in_the_order(rack):
+    # the jug and the bowl stand on the table beside the rack: only the two mugs swap, in the slots they had
+    order = ["utilityjug_a01", "ceramic_mug", "serving_bowl", "mug"]
+    assert way_out_first(rack, order) == ["utilityjug_a01", "mug", "serving_bowl", "ceramic_mug"]
+
+
+def test_a_held_object_is_turned_about_the_vertical_over_its_spot_until_the_hand_reaches(rack):
+    grasp = front_grasps(rack, "mug")[0].pose
+    held_offset = grasp[:2] - centre(rack, "mug")[:2]
+    held_bottom = grasp[2] - object_bottom(rack, "mug")
+    at = (0.33, -0.05)
+    tried = []
+
+    def reach_only_half_round(over, place):
+        tried.append(place)
+        return len(tried) == 2  # the object as it lies first, then half round (TABLE_TURNS' order)
+
+    place, over = turned_table_place(rack, "mug", at, grasp, held_bottom, held_offset, reach_only_half_round)
+    assert TABLE_TURNS[:2] == (0, 180) and len(tried) == 2
+    as_held, _ = place_pose(rack, "mug", None, at, grasp, held_bottom, held_offset)
+    assert np.allclose(tried[0], as_held)  # no turn first
+    spin = rotation_about(np.array([0.0, 0.0, 1.0]), np.pi)
+    assert np.allclose(quat_to_matrix(place[3:]), spin @ quat_to_matrix(grasp[3:]), atol=1e-6)
+    # the object's middle stays over the spot: the hand goes round it to the other side
+    assert np.allclose(place[:2], np.asarray(at) - held_offset, atol=1e-6)
+    assert np.isclose(place[2], as_held[2]) and over[2] > place[2]
+    # the hand leaned out towards the robot; turned half round, it leans away from it
+    lean_before, lean_after = -quat_to_matrix(grasp[3:])[:2, 2], -quat_to_matrix(place[3:])[:2, 2]
+    assert lean_before @ -np.asarray(at) > 0 > lean_after @ -np.asarray(at)
+
+
+def test_no_turn_reached_leaves_no_place(rack):
+    grasp = front_grasps(rack, "mug")[0].pose
+    calls = []
+    found = turned_table_place(
+        rack, "mug", (0.33, -0.05), grasp, 0.1, np.zeros(2), lambda over, place: calls.append(place) is not None
+    )
+    assert found is None and len(calls) == len(TABLE_TURNS)
+
+
+def test_a_mug_on_the_level_is_held_by_its_wall_with_the_hand_coming_down_from_over_the_rim(rack):
+    from robolab_ms.policies.oracle.gripper import hand_clear
+    from robolab_ms.policies.oracle.side_grasps import pad_corner_drop
+
+    grasps = front_grasps(rack, "mug")
+    assert grasps
+    first = grasps[0]
+    rim = float(world_points(rack, "mug")[:, 2].max())
+    assert np.allclose(first.approach[:2], first.pose[:2]) and np.allclose(first.approach[3:], first.pose[3:])
+    lean = np.arccos(np.clip(-quat_to_matrix(first.pose[3:])[2, 2], -1.0, 1.0))
+    assert first.approach[2] - pad_corner_drop(lean) > rim  # the pads pass over the rim, then come down onto it
+    assert first.pose[2] < rim  # closed on the wall below the rim
+    assert hand_clear(first.approach, fixture_boxes(rack)) and hand_clear(first.entry, fixture_boxes(rack))
+    # the hand moves in level from outside the shelf to over the rim
+    assert (
+        np.isclose(first.entry[2], first.approach[2]) and first.entry[:2] @ first.out > first.approach[:2] @ first.out
+    )
