@@ -61,7 +61,7 @@ PLACE_CELL = 0.01  # m between the rays that map a container's floor or a plate 
 PLACE_FLATNESS = 0.02  # m a place spot may rise above the lowest point of the container or plate
 PLACE_MARGIN = 0.015  # m kept between an object set down in a container or on a plate and what is already there
 PLACE_TURNS = (0, 15, -15, 30, -30, 45, -45, 60, -60, 75, -75, 90)  # degrees the hand may turn to fit a place
-TABLE_TURNS = (0, 180, 90, -90, 135, -135, 45, -45)  # degrees a held object may turn about the vertical over its spot
+TABLE_TURNS = (0, 180, 90, -90, 135, -135, 45, -45)  # degrees a held object may turn about the vertical over a spot
 PLACE_MIDDLE = 0.04  # m: a long object too big for a floor has at least this much around its middle over it
 PLACE_REACH_TRIES = 12  # free spots tried for reach where the middle is out of reach ...
 PLACE_REACH_MARGIN = 0.04  # ... and the one chosen this much nearer the robot than the farthest reached, if free
@@ -336,8 +336,8 @@ def turned_table_place(
     """`place_pose` on the table at `at`, with the held object (and the hand with it) turned about the vertical
     through the middle of its footprint by TABLE_TURNS in turn: a hand that leans out of a shelf towards the robot
     cannot set an object down near the robot's base as it holds it, but turned half round it leans away from the
-    robot. The first release pose and the pose above it that `reachable` (the least turn first, the object as it
-    lies first); None where no turn is reached."""
+    robot. The first release pose and the pose above it that `reachable`, in TABLE_TURNS' order (as the object lies,
+    then half round, then by quarter and eighth turns); None where no turn is reached."""
     for turn in TABLE_TURNS:
         spin = rotation_about(np.array([0.0, 0.0, 1.0]), np.radians(turn))
         turned_grasp = np.concatenate([grasp[:3], matrix_to_quaternion(spin @ quat_to_matrix(grasp[3:]))])
