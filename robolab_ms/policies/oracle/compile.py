@@ -19,7 +19,6 @@ from robolab_ms.policies.oracle.places import (
 from robolab_ms.policies.oracle.world import (
     centre,
     covered,
-    covering_boxes,
     fixture_boxes,
     leaning_board,
     lying_container,
@@ -137,11 +136,9 @@ def way_out_first(env: RoboLabEnv, objects: list[str]) -> list[str]:
     themselves to come nearest the level's open side first: one in front stands in the way of the hand reaching for
     one behind it. Equal ones keep their order."""
     boxes = fixture_boxes(env)
-    depths = {}
-    for name in objects:
-        points = world_points(env, name)
-        if covering_boxes(points, boxes):
-            depths[name] = open_side_depths(points, boxes)[0][0]
+    depths = {
+        name: open_side_depths(world_points(env, name), boxes)[0][0] for name in objects if covered(env, name, boxes)
+    }
     slots = [index for index, name in enumerate(objects) if name in depths]
     ordered = list(objects)
     for index, name in zip(slots, sorted((objects[index] for index in slots), key=lambda name: depths[name])):

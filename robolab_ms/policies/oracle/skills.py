@@ -19,6 +19,7 @@ A skill raises OracleFailure where it cannot be planned, and then leaves nothing
 
 from __future__ import annotations
 
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -368,7 +369,7 @@ def _front_attempt(
         spot = free_place(env, name, onto, grasp.pose, held_bottom, motion.can_lower) if spread else None
         if onto is None:  # on the table: the object turned about the vertical where the hand cannot lower it as held
             # (reached as the carry reaches it: inverse kinematics from many starts, then straight down)
-            reach = lambda over, place: motion.can_lower(over, place, starts=IK_RETRIES)  # noqa: E731
+            reach = partial(motion.can_lower, starts=IK_RETRIES)
             spot = turned_table_place(env, name, at, grasp.pose, held_bottom, held_offset, reach)
         place, above_place = (
             spot if spot is not None else place_pose(env, name, onto, at, grasp.pose, held_bottom, held_offset)
