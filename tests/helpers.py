@@ -1,10 +1,12 @@
-"""Helpers shared by the tests: physics set-ups, and killing a parallel run as a crash would."""
+"""Helpers shared by the tests: physics set-ups, a task's scene at reset, and killing a parallel run as a crash
+would."""
 
 import os
 import signal
 import subprocess
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +15,23 @@ import torch
 
 FIXTURES = Path(__file__).parent / "fixtures"
 LAB = FIXTURES / "PredicateLab.yaml"
+
+
+@contextmanager
+def task_at_reset(task: str, seed: int) -> Iterator:
+    """The unwrapped environment of `task` (a name) reset at `seed`, state observations on the CPU renderer, its
+    evaluation context read afresh; closed afterwards."""
+    import gymnasium as gym
+
+    from robolab_ms.tasks.spec import load_task
+
+    env = gym.make(load_task(task).env_id, obs_mode="state_dict", render_backend="cpu")
+    try:
+        env.reset(seed=seed)
+        env.unwrapped.eval_context.refresh()
+        yield env.unwrapped
+    finally:
+        env.close()
 
 
 def put(env, name, xyz, quat=(1.0, 0.0, 0.0, 0.0)):

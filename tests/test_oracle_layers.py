@@ -5,7 +5,7 @@ putting the red block into the bin."""
 
 import numpy as np
 import pytest
-from helpers import FIXTURES
+from helpers import FIXTURES, task_at_reset
 
 from robolab_ms.policies.oracle.clearance import APPROACH_HEIGHT
 from robolab_ms.policies.oracle.geometry import down_quaternion, quat_to_matrix, raised
@@ -291,15 +291,8 @@ def test_a_carry_refused_on_the_way_rises_to_the_place_height_first():
 def jugs():
     """JugsOnShelf at seed 0: a 28-cm jug (a 9.7-cm body, wider than the open fingers, under a 4-cm neck) stands
     on the table, and the storage rack's top is 40 cm up."""
-    import gymnasium as gym
-
-    from robolab_ms.tasks.spec import load_task
-
-    env = gym.make(load_task("JugsOnShelf").env_id, obs_mode="state_dict", render_backend="cpu")
-    env.reset(seed=0)
-    env.unwrapped.eval_context.refresh()
-    yield env.unwrapped
-    env.close()
+    with task_at_reset("JugsOnShelf", 0) as env:
+        yield env
 
 
 def test_a_bottle_whose_neck_fits_the_fingers_is_held_round_its_neck(jugs):

@@ -1,27 +1,24 @@
 """The oracle's pieces for taking objects off a shelf level, on their own: the order of the jobs (the object nearest
-the level's open side first, `compile.way_out_first`) and the set-down spot on the table with the held object
-turned about the vertical (`places.turned_table_place`), on TakeMugsOffOfShelf's rack at seed 0 (a white mug in
-front of a blue one on the middle level, 11 cm under the level above)."""
+the level's open side first, `compile.way_out_first`), the set-down spot on the table with the held object turned
+about the vertical (`places.turned_table_place`) and a mug's wall grasp come down onto from over the rim
+(`side_grasps.front_grasps`), on TakeMugsOffOfShelf's rack at seed 0 (a white mug in front of a blue one on the
+middle level, 11 cm under the level above)."""
 
-import gymnasium as gym
 import numpy as np
 import pytest
+from helpers import task_at_reset
 
 from robolab_ms.policies.oracle.compile import way_out_first
 from robolab_ms.policies.oracle.geometry import quat_to_matrix, rotation_about
 from robolab_ms.policies.oracle.places import TABLE_TURNS, place_pose, turned_table_place
 from robolab_ms.policies.oracle.side_grasps import front_grasps
 from robolab_ms.policies.oracle.world import centre, fixture_boxes, object_bottom, open_side_depths, world_points
-from robolab_ms.tasks.spec import load_task
 
 
 @pytest.fixture(scope="module")
 def rack():
-    env = gym.make(load_task("TakeMugsOffOfShelf").env_id, obs_mode="state_dict", render_backend="cpu")
-    env.reset(seed=0)
-    env.unwrapped.eval_context.refresh()
-    yield env.unwrapped
-    env.close()
+    with task_at_reset("TakeMugsOffOfShelf", 0) as env:
+        yield env
 
 
 def test_the_mug_in_front_is_taken_off_the_level_first(rack):
@@ -66,9 +63,12 @@ def test_a_held_object_is_turned_about_the_vertical_over_its_spot_until_the_hand
 def test_no_turn_reached_leaves_no_place(rack):
     grasp = front_grasps(rack, "mug")[0].pose
     calls = []
-    found = turned_table_place(
-        rack, "mug", (0.33, -0.05), grasp, 0.1, np.zeros(2), lambda over, place: calls.append(place) is not None
-    )
+
+    def never_reached(over, place):
+        calls.append(place)
+        return False
+
+    found = turned_table_place(rack, "mug", (0.33, -0.05), grasp, 0.1, np.zeros(2), never_reached)
     assert found is None and len(calls) == len(TABLE_TURNS)
 
 
