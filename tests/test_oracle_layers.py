@@ -97,11 +97,11 @@ def lab():
 
 @pytest.fixture
 def motion(lab):
-    from robolab_ms.policies.oracle.motion import MotionPlanner, seed_inverse_kinematics
+    from robolab_ms.policies.oracle.motion import MotionPlanner, seed_planner
 
     lab.reset(seed=0)
     lab.eval_context.refresh()
-    seed_inverse_kinematics(0)
+    seed_planner(0)
     planner = MotionPlanner(lab)
     planner.bind(lab)
     planner.sync_fixtures()
@@ -214,13 +214,13 @@ def test_a_carried_object_is_kept_clear_of_a_shelf_post():
     posture collides while the planner carries the mug (`carrying`), and not before or after. The post is narrower
     than the mug: it passes between the mug's corners, so the check is of boxes, not of points."""
     from robolab_ms.envs import RoboLabEnv
-    from robolab_ms.policies.oracle.motion import MotionPlanner, seed_inverse_kinematics
+    from robolab_ms.policies.oracle.motion import MotionPlanner, seed_planner
     from robolab_ms.policies.oracle.world import fixture_boxes
 
     env = RoboLabEnv(task="PutTwoMugsOnShelf", obs_mode="state_dict", render_backend="cpu")
     try:
         env.reset(seed=0)
-        seed_inverse_kinematics(0)
+        seed_planner(0)
         planner = MotionPlanner(env)
         planner.bind(env)
         planner.sync_fixtures()
@@ -313,9 +313,9 @@ def test_a_bottle_whose_neck_fits_the_fingers_is_held_round_its_neck(jugs):
 def test_a_screw_motion_that_spins_the_arm_round_is_refused(jugs):
     """Straight up from over the jug to 78 cm, mplib's screw motion turns the joints through about 17 rad (a
     90-second move near a singularity); `screw` refuses it, and keeps the short one up to 60 cm."""
-    from robolab_ms.policies.oracle.motion import MAX_SCREW_TRAVEL, MotionPlanner, seed_inverse_kinematics
+    from robolab_ms.policies.oracle.motion import MAX_SCREW_TRAVEL, MotionPlanner, seed_planner
 
-    seed_inverse_kinematics(0)
+    seed_planner(0)
     motion = MotionPlanner(jugs)
     motion.bind(jugs)
     motion.sync_fixtures()
@@ -330,6 +330,27 @@ def test_a_screw_motion_that_spins_the_arm_round_is_refused(jugs):
     assert np.abs(np.diff(spin["position"], axis=0)).max(axis=1).sum() > MAX_SCREW_TRAVEL
     assert motion.screw(high, start)["status"] != "Success"
     assert motion.screw(low, start)["status"] == "Success"
+
+
+def test_seeding_the_planner_repeats_a_sampled_path(motion):
+    """After `seed_planner`, OMPL's sampled path round a wall is the same every time for one seed, and another
+    seed gives another path: a seed's episode does not depend on the episodes run before it in the process."""
+    from robolab_ms.policies.oracle.motion import seed_planner
+
+    wall = np.stack(np.meshgrid(np.linspace(0.3, 0.7, 20), [-0.02, 0.0, 0.02], np.linspace(0.0, 0.6, 30)), -1)
+    motion.planner.update_point_cloud(wall.reshape(-1, 3))
+    start = np.array([0.6, 0.4, 0.0, -2.0, 0.0, 2.4, 0.8, 0.04, 0.04])
+    goal = start * np.array([-1, 1, 1, 1, 1, 1, 1, 1, 1])  # the same posture on the wall's other side
+
+    def sampled_path(seed: int) -> np.ndarray:
+        seed_planner(seed)
+        result = motion.planner.plan_qpos_to_qpos([goal], start, time_step=0.05, use_point_cloud=True)
+        assert result["status"] == "Success"
+        return result["position"]
+
+    first, other, again = sampled_path(7), sampled_path(8), sampled_path(7)
+    assert np.array_equal(first, again)
+    assert first.shape != other.shape or not np.allclose(first, other)
 
 
 def test_a_screw_motion_that_crawls_is_refused():

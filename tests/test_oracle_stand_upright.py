@@ -25,7 +25,7 @@ def _runs(actions: list[np.ndarray]) -> list[tuple[np.ndarray, int]]:
 
 
 def test_the_plan_waits_outside_the_opening_and_at_the_end_of_the_turn():
-    from robolab_ms.policies.oracle.motion import SETTLE_STEPS, MotionPlanner, seed_inverse_kinematics
+    from robolab_ms.policies.oracle.motion import SETTLE_STEPS, MotionPlanner, seed_planner
     from robolab_ms.policies.oracle.skills import PIVOT_HOLD_STEPS, STEP_SETTLE_STEPS, stand_upright
 
     env = gym.make(load_task("ReorientWhiteMugs").env_id, obs_mode="state_dict")
@@ -33,7 +33,7 @@ def test_the_plan_waits_outside_the_opening_and_at_the_end_of_the_turn():
         env.reset(seed=0)
         lab = env.unwrapped
         lab.eval_context.refresh()
-        seed_inverse_kinematics(0)
+        seed_planner(0)
         motion = MotionPlanner(lab)
         motion.bind(lab)
         motion.sync_fixtures()

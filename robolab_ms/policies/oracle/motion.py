@@ -12,6 +12,7 @@ and beside a fixture it comes to an arm posture from which the straight descent 
 
 from __future__ import annotations
 
+import functools
 from collections import deque
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -63,12 +64,30 @@ LOWER_STEP = 0.05  # m between the lower heights over the grasp tried where no p
 Plan = dict[str, Any]  # mplib's result: "status", and "position" (rows of 7 arm joints) on success
 
 
-def seed_inverse_kinematics(seed: int) -> None:
-    """Seed the C library's generator, from which the planner's inverse kinematics draws its random starts, so the
-    oracle's plans depend on the episode seed only."""
+def seed_planner(seed: int) -> None:
+    """Seed the planner's two random sources from the episode seed, so that the oracle's plans depend on it alone:
+    the C library's generator (the random starts of mplib's inverse kinematics) and OMPL's (its sampled joint
+    paths)."""
     import ctypes
 
     ctypes.CDLL(None).srand(ctypes.c_uint(seed & 0xFFFFFFFF))
+    ompl_set_seed()(seed % 0xFFFFFFFF + 1)  # OMPL ignores a seed of 0
+
+
+@functools.cache
+def ompl_set_seed():
+    """`ompl::RNG::setSeed` of the OMPL library that mplib loads; mplib's bindings leave it out. Each call restarts
+    the seeds OMPL hands its samplers, so a sampled path depends only on the last seed and the problem."""
+    import ctypes
+
+    import mplib
+
+    bundled = sorted((Path(mplib.__file__).parent.parent / "mplib.libs").glob("libompl*.so*"))
+    if not bundled:
+        raise OracleFailure("no OMPL library beside mplib: the oracle needs the mplib wheel pinned in pyproject.toml")
+    set_seed = ctypes.CDLL(str(bundled[0]))._ZN4ompl3RNG7setSeedEm  # ompl::RNG::setSeed(unsigned long)
+    set_seed.argtypes, set_seed.restype = [ctypes.c_ulong], None
+    return set_seed
 
 
 def make_planner(env: RoboLabEnv):
@@ -317,7 +336,7 @@ class MotionPlanner:
 
     def plan_to_joints(self, goals: list[np.ndarray], qpos: np.ndarray) -> Plan:
         """A timed joint path to the first goal reachable by a straight line in joint space free of collisions; a
-        sampling planner (not reproducible) only when no straight line is free."""
+        sampling planner (seeded by `seed_planner`) only when no straight line is free."""
         planner, step = self.planner, self.time_step
         for goal in goals:
             count = int(np.ceil(np.max(np.abs(goal[:7] - qpos[:7])) / JOINT_PATH_RESOLUTION)) + 1

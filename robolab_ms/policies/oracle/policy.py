@@ -22,7 +22,7 @@ from robolab_ms.policies import Policy
 from robolab_ms.policies.oracle.compile import Job, job_done, jobs_for, spare_jobs
 from robolab_ms.policies.oracle.failure import OracleFailure
 from robolab_ms.policies.oracle.grasps import grasp_pose
-from robolab_ms.policies.oracle.motion import GRIPPER_STEPS, SETTLE_STEPS, MotionPlanner, seed_inverse_kinematics
+from robolab_ms.policies.oracle.motion import GRIPPER_STEPS, SETTLE_STEPS, MotionPlanner, seed_planner
 from robolab_ms.policies.oracle.places import crowded_top
 from robolab_ms.policies.oracle.side_grasps import side_grips
 from robolab_ms.policies.oracle.skills import (
@@ -76,7 +76,7 @@ class OraclePolicy(Policy):
     def reset(self, instruction: str, action_space: spaces.Box, seed: int) -> None:
         if self.env is None:
             raise OracleFailure("the oracle reads the simulator: call bind(env) before reset()")
-        seed_inverse_kinematics(seed)
+        seed_planner(seed)
         self.motion.sync_fixtures()
         self.compiled: list[Job] = jobs_for(self.env)  # every job of the task, to look over once all are done
         self.jobs: deque[Job] = deque(self.compiled)
