@@ -250,11 +250,18 @@ def pad_corner_drop(lean_angle: float) -> float:
     return PAD_BELOW_TCP * np.cos(lean_angle) + PAD_HALF_WIDTH * np.sin(lean_angle)
 
 
-def pulled_out(env: RoboLabEnv, name: str, grasp: FrontGrasp) -> np.ndarray | None:
-    """The TCP pose, FRONT_LIFT above `grasp` and moved along its way out, where the hand and object `name` held
-    by it are outside every fixture's footprint; None if the hand would hit a fixture first."""
-    held = world_points(env, name) - grasp.pose[:3]
-    return moved_out(raised(grasp.pose, FRONT_LIFT), grasp.out, fixture_boxes(env), held)
+def ways_out(env: RoboLabEnv, name: str, grasp: FrontGrasp) -> list[np.ndarray]:
+    """The TCP poses, FRONT_LIFT above `grasp` and moved horizontally out of the shelf, where the hand and object
+    `name` held by it are outside every fixture's footprint: along the grasp's way out first, then out of the
+    level's other open sides, nearest that way first; none where the hand would hit a fixture first."""
+    points = world_points(env, name)
+    boxes = fixture_boxes(env)
+    held = points - grasp.pose[:3]
+    sides = sorted(open_sides(points, boxes), key=lambda side: -float(side @ grasp.out))
+    if not any(np.allclose(side, grasp.out) for side in sides):
+        sides.insert(0, grasp.out)
+    poses = (moved_out(raised(grasp.pose, FRONT_LIFT), side, boxes, held) for side in sides)
+    return [pose for pose in poses if pose is not None]
 
 
 # ------------------------------------------------------------------------------------------------ boards

@@ -63,9 +63,9 @@ from robolab_ms.policies.oracle.side_grasps import (
     board_end_grasp,
     front_grasps,
     moved_out,
-    pulled_out,
     rim_grasp,
     turned_rim_grasps,
+    ways_out,
 )
 from robolab_ms.policies.oracle.world import (
     UPSIDE_DOWN_TILT,
@@ -359,8 +359,8 @@ def _front_attempt(
 ) -> None:
     """The moves of `front_pick_and_place` with one front grasp."""
     env = motion.env
-    out = pulled_out(env, name, grasp)
-    if out is None:
+    outs = ways_out(env, name, grasp)
+    if not outs:
         raise OracleFailure(f"cannot pull '{name}' out of the shelf: the hand would hit it")
     held_offset = grasp.pose[:2] - centre(env, name)[:2]
     held_bottom = grasp.pose[2] - object_bottom(env, name)
@@ -379,17 +379,33 @@ def _front_attempt(
     qpos = motion.move(qpos, grasp.approach, f"reach in towards '{name}'")
     qpos = motion.move(qpos, grasp.pose, f"reach in to '{name}'")
     motion.hold(qpos, 1.0, GRIPPER_STEPS)
-    qpos = motion.move(qpos, raised(grasp.pose, FRONT_LIFT), f"lift '{name}' off its level")
-    qpos = motion.move(qpos, out, f"pull '{name}' out of the shelf")
+    # off the level and out of the shelf in straight lines only: a sampled path swings the held object through
+    # the shelf and its neighbours
+    qpos = motion.move_straight(qpos, raised(grasp.pose, FRONT_LIFT), f"lift '{name}' off its level")
+    qpos, out = pull_out(motion, qpos, name, outs)
     if onto is None and at is None:
         motion.move(qpos, raised(out, lift), f"lift '{name}'")
         return
     qpos = motion.move(qpos, raised(out, LIFT_HEIGHT), f"lift '{name}'")
     where = _where(onto, at)
-    qpos = motion.move(qpos, above_place, f"carry '{name}' over {where}", straight=False)
-    qpos = motion.move(qpos, place, f"lower '{name}' onto {where}")
+    # into a posture from which the arm lowers it straight (held by the rim, it swings on a sampled path)
+    qpos = motion.move_for_chain(qpos, above_place, [place], f"carry '{name}' over {where}")
+    qpos = motion.move_straight(qpos, place, f"lower '{name}' onto {where}")
     motion.hold(qpos, 0.0, GRIPPER_STEPS)
     motion.move(qpos, above_place, f"retreat from {where}")
+
+
+def pull_out(
+    motion: MotionPlanner, qpos: np.ndarray, name: str, outs: list[np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Queue a straight pull of the held object `name` to the first of the poses `outs` (see `ways_out`) that
+    the arm reaches on a straight line; returns the final joints and that pose."""
+    for out in outs:
+        try:
+            return motion.move_straight(qpos, out, f"pull '{name}' out of the shelf"), out
+        except OracleFailure:
+            continue
+    raise OracleFailure(f"cannot pull '{name}' out of the shelf on a straight line: the arm does not reach that way")
 
 
 # ------------------------------------------------------------------------------------------------ heavy tools far away
