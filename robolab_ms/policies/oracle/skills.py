@@ -374,15 +374,10 @@ def _front_attempt(
         place, above_place = (
             spot if spot is not None else place_pose(env, name, onto, at, grasp.pose, held_bottom, held_offset)
         )
-    qpos = motion.current_qpos()
-    qpos = motion.move(qpos, grasp.entry, f"reach in front of '{name}'", straight=False)
-    qpos = motion.move(qpos, grasp.approach, f"reach in towards '{name}'")
-    qpos = motion.move(qpos, grasp.pose, f"reach in to '{name}'")
+    qpos, (towards, onto_grasp, off_level, pull), out = reach_in_and_out(motion, name, grasp, outs)
+    qpos = motion.queue(motion.queue(qpos, towards), onto_grasp)
     motion.hold(qpos, 1.0, GRIPPER_STEPS)
-    # off the level and out of the shelf in straight lines only: a sampled path swings the held object through
-    # the shelf and its neighbours
-    qpos = motion.move_straight(qpos, raised(grasp.pose, FRONT_LIFT), f"lift '{name}' off its level")
-    qpos, out = pull_out(motion, qpos, name, outs)
+    qpos = motion.queue(motion.queue(qpos, off_level), pull)
     if onto is None and at is None:
         motion.move(qpos, raised(out, lift), f"lift '{name}'")
         return
@@ -395,17 +390,22 @@ def _front_attempt(
     motion.move(qpos, above_place, f"retreat from {where}")
 
 
-def pull_out(
-    motion: MotionPlanner, qpos: np.ndarray, name: str, outs: list[np.ndarray]
-) -> tuple[np.ndarray, np.ndarray]:
-    """Queue a straight pull of the held object `name` to the first of the poses `outs` (see `ways_out`) that
-    the arm reaches on a straight line; returns the final joints and that pose."""
+def reach_in_and_out(
+    motion: MotionPlanner, name: str, grasp: FrontGrasp, outs: list[np.ndarray]
+) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+    """Queue the move to the front of the shelf (`grasp.entry`) into a posture from which the hand goes in, onto
+    `grasp`, off the level and out to the first of `outs` (see `ways_out`) that it reaches, all in straight lines: a
+    sampled path in the shelf sweeps the hand into what stands there and swings the held object. Returns the
+    joints at the entry, the four straight paths (not queued) and the pose out."""
+    planned, start = motion.mark(), motion.current_qpos()
     for out in outs:
-        try:
-            return motion.move_straight(qpos, out, f"pull '{name}' out of the shelf"), out
-        except OracleFailure:
-            continue
-    raise OracleFailure(f"cannot pull '{name}' out of the shelf on a straight line: the arm does not reach that way")
+        chain = [grasp.approach, grasp.pose, raised(grasp.pose, FRONT_LIFT), out]
+        qpos = motion.move_for_chain(start, grasp.entry, chain, f"reach in front of '{name}'")
+        paths = motion.straight_chain(qpos, chain)
+        if paths is not None:
+            return qpos, paths, out
+        motion.rewind(planned)
+    raise OracleFailure(f"cannot reach in to '{name}' and pull it out of the shelf in straight lines")
 
 
 # ------------------------------------------------------------------------------------------------ heavy tools far away
