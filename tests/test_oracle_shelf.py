@@ -1,7 +1,8 @@
 """The oracle's pieces for taking objects off a shelf level, on their own: the order of the jobs (the object nearest
 the level's open side first, `compile.way_out_first`), the set-down spot on the table with the held object turned
 about the vertical (`places.turned_table_place`) and a mug's wall grasp come down onto from over the rim
-(`side_grasps.front_grasps`), on TakeMugsOffOfShelf's rack at seed 0 (a white mug in front of a blue one on the
+(`side_grasps.front_grasps`), the ways out (`side_grasps.ways_out`) and the straight moves in and out
+(`skills.reach_in_and_out`), on TakeMugsOffOfShelf's rack at seed 0 (a white mug in front of a blue one on the
 middle level, 11 cm under the level above)."""
 
 import numpy as np
@@ -89,3 +90,49 @@ def test_a_mug_on_the_level_is_held_by_its_wall_with_the_hand_coming_down_from_o
     assert (
         np.isclose(first.entry[2], first.approach[2]) and first.entry[:2] @ first.out > first.approach[:2] @ first.out
     )
+
+
+def test_the_ways_out_start_along_the_grasp_and_leave_every_footprint_level(rack):
+    from robolab_ms.policies.oracle.geometry import Box, inside_boxes, raised
+    from robolab_ms.policies.oracle.side_grasps import FRONT_LIFT, ways_out
+
+    grasp = front_grasps(rack, "mug")[0]
+    lifted = raised(grasp.pose, FRONT_LIFT)
+    outs = ways_out(rack, "mug", grasp)
+    assert outs
+    sides = [side for _, side in open_side_depths(world_points(rack, "mug"), fixture_boxes(rack))]
+    held = world_points(rack, "mug") - grasp.pose[:3]
+    tall: list[Box] = [(rotation, middle, half + [0.0, 0.0, 1.0]) for rotation, middle, half in fixture_boxes(rack)]
+    for index, out in enumerate(outs):
+        moved = out[:3] - lifted[:3]
+        assert moved[2] == pytest.approx(0.0) and np.allclose(out[3:], lifted[3:])  # level, the hand as it held
+        direction = moved[:2] / np.linalg.norm(moved[:2])
+        assert np.allclose(direction, grasp.out) if index == 0 else any(np.allclose(direction, s) for s in sides)
+        assert not inside_boxes(held + out[:3], tall, 0.0)  # the mug is out from under the level
+
+
+def test_the_hand_goes_in_under_the_level_and_out_again_in_straight_lines(rack):
+    from robolab_ms.policies.oracle.geometry import raised
+    from robolab_ms.policies.oracle.motion import MotionPlanner, seed_planner
+    from robolab_ms.policies.oracle.side_grasps import FRONT_LIFT, ways_out
+    from robolab_ms.policies.oracle.skills import reach_in_and_out
+
+    seed_planner(0)
+    motion = MotionPlanner(rack)
+    motion.bind(rack)
+    motion.sync_fixtures()
+    grasp = front_grasps(rack, "mug")[0]
+    outs = ways_out(rack, "mug", grasp)
+    entry_joints, paths, out = reach_in_and_out(motion, "mug", grasp, outs)
+    assert any(out is candidate for candidate in outs)
+    assert np.allclose(motion.tcp_at(entry_joints)[:3], grasp.entry[:3], atol=0.002)
+    ends = [grasp.entry, grasp.approach, grasp.pose, raised(grasp.pose, FRONT_LIFT), out]
+    posture = entry_joints.copy()
+    for path, start, end in zip(paths, ends, ends[1:]):
+        line = end[:3] - start[:3]
+        for joints in path:
+            posture[:7] = joints
+            offset = motion.tcp_at(posture)[:3] - start[:3]
+            along = float(np.clip(offset @ line / (line @ line), 0.0, 1.0))
+            assert np.linalg.norm(offset - along * line) < 0.003  # on the line between the two poses
+        assert np.allclose(motion.tcp_at(posture)[:3], end[:3], atol=0.01)
