@@ -353,6 +353,36 @@ def test_seeding_the_planner_repeats_a_sampled_path(motion):
     assert first.shape != other.shape or not np.allclose(first, other)
 
 
+def test_the_planner_checks_the_robots_own_hand(motion):
+    """The planner's collision model carries the droid's 2F-85 (16 cm from the flange to the TCP), not the Panda hand
+    of ManiSkill's arm model (10 cm): a block between the open pads, where only the 2F-85 reaches, is a collision
+    for the planner, and one 3 cm beyond the fingertips is not. Without it a sampled path ran the pads into a shelf
+    board."""
+    import mplib
+    import mplib.pymp as mp
+
+    from robolab_ms.agents.droid_model import FLANGE_LINK
+    from robolab_ms.policies.oracle.planning_model import panda_model
+
+    qpos = motion.current_qpos()
+    tcp = motion.tcp_at(qpos)
+    axis = quat_to_matrix(tcp[3:])[:, 2]  # towards the fingertips
+    fcl = mp.collision_detection.fcl
+    panda_hand = mplib.Planner(urdf=str(panda_model()[0]), srdf=str(panda_model()[1]), move_group=FLANGE_LINK)
+
+    def hits(planner, along: float) -> bool:
+        block = fcl.CollisionObject(fcl.Box(np.full(3, 0.01)), tcp[:3] + along * axis, np.array([1.0, 0, 0, 0]))
+        planner.set_normal_object("block", block)
+        try:
+            return any(hit.link_name1 == "panda_hand" for hit in planner.check_for_env_collision(qpos=qpos))
+        finally:
+            planner.remove_normal_object("block")
+
+    assert hits(motion.planner, -0.02)
+    assert not hits(panda_hand, -0.02)  # the arm model's own hand stops short of it
+    assert not hits(motion.planner, 0.03)
+
+
 def test_a_screw_motion_that_crawls_is_refused():
     """A screw motion that moves the joints little but lasts longer than MAX_SCREW_SECONDS (tiny steps near a
     singularity) is refused like one that spins the arm round; a short one is kept."""

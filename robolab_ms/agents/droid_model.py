@@ -71,7 +71,8 @@ def cache_dir() -> Path:
     return Path(base) / "robolab_ms"
 
 
-def _absolute_meshes(root: ET.Element, urdf_folder: Path) -> None:
+def absolute_meshes(root: ET.Element, urdf_folder: Path) -> None:
+    """Point the meshes of a parsed URDF, given relative to `urdf_folder`, at their absolute paths."""
     for mesh in root.iter("mesh"):
         mesh.set("filename", str((urdf_folder / mesh.get("filename")).resolve()))
 
@@ -80,7 +81,7 @@ def _panda_arm() -> list[ET.Element]:
     """Links panda_link0..8 and their joints from ManiSkill's Panda, with DROID's limits."""
     urdf = package_dir("mani_skill") / "assets" / "robots" / "panda" / "panda_v2.urdf"
     root = ET.parse(urdf).getroot()
-    _absolute_meshes(root, urdf.parent)
+    absolute_meshes(root, urdf.parent)
     keep_links = {f"panda_link{i}" for i in range(9)}
     elements = []
     for element in root:
@@ -111,7 +112,7 @@ def _robotiq() -> list[ET.Element]:
     text = re.sub(r"<drake:(\w+)[^>]*/>", "", text)
     text = re.sub(r"<drake:(\w+)[^>]*>.*?</drake:\1>", "", text, flags=re.DOTALL)
     root = ET.fromstring(text)
-    _absolute_meshes(root, urdf.parent)
+    absolute_meshes(root, urdf.parent)
     renames = {"base_link": GRIPPER_BASE_LINK, "finger_joint": DRIVEN_GRIPPER_JOINTS[0]}
     elements = []
     for element in root:
@@ -172,9 +173,19 @@ def build_droid_urdf() -> str:
 
 def droid_urdf_path() -> Path:
     """Path of the combined URDF, written once per distinct content into the cache folder."""
-    text = build_droid_urdf()
+    return cached_file("droid", ".urdf", build_droid_urdf())
+
+
+def robot_cache_dir() -> Path:
+    """The cache folder's subfolder for generated robot files."""
+    return cache_dir() / "robots"
+
+
+def cached_file(stem: str, suffix: str, text: str) -> Path:
+    """Path of a generated robot file with content `text` in the cache folder, written once per distinct content
+    (named `stem`, a digest of the content and `suffix`)."""
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = cache_dir() / "robots" / f"droid_{digest}.urdf"
+    path = robot_cache_dir() / f"{stem}_{digest}{suffix}"
     if not path.is_file():
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.with_suffix(f".{os.getpid()}.tmp")

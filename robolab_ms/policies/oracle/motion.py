@@ -5,9 +5,11 @@ control rate).
 Moves are straight lines of the TCP through inverse-kinematics waypoints a centimetre apart where they can be
 (`plan_straight`), mplib's screw motion at the edge of the workspace, and a straight line in joint space or
 RRT-Connect to an inverse-kinematics goal otherwise (`move`). The fixtures (shelves) are boxes in the planner's
-world; against them the hand is checked as the real gripper's solids (`gripper.HAND_SOLIDS`), not as the
-planner's wider Panda hand. On the way to a grasp the hand passes over what stands near its way (`reach_over`),
-and beside a fixture it comes to an arm posture from which the straight descent is free (`reach_over_clear`).
+world, and the planner's model carries the real gripper's solids (`gripper.HAND_SOLIDS`, `planning_model`) in
+place of ManiSkill's Panda hand, so its sampled paths keep them out of the fixtures; the straight moves check the
+same solids with a margin (`gripper.hand_clear`). On the way to a grasp the hand passes over what stands near its
+way (`reach_over`), and beside a fixture it comes to an arm posture from which the straight descent is free
+(`reach_over_clear`).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from robolab_ms.policies.oracle.clearance import (
 from robolab_ms.policies.oracle.failure import OracleFailure
 from robolab_ms.policies.oracle.geometry import boxes_overlap, matrix_to_quaternion, quat_to_matrix
 from robolab_ms.policies.oracle.gripper import FINGERTIP_BELOW_TCP, hand_clear
+from robolab_ms.policies.oracle.planning_model import panda_model, planning_urdf
 from robolab_ms.policies.oracle.world import fixture_boxes, world_points
 
 if TYPE_CHECKING:
@@ -53,8 +56,8 @@ MAX_SCREW_SECONDS = 20.0  # s one screw motion may last (more: it crawls in tiny
 HELD_FIXTURE_MARGIN = 0.015  # m kept between a carried object and a fixture (it swings a little in the fingers)
 SAMPLED_PLANNING_TIME = 2.0  # s RRT-Connect may take where no straight line in joint space is free
 OPEN_FINGER_QPOS = 0.04  # the planning model's finger joints, kept open
-PLANNER_HAND_LINKS = ("panda_hand", "panda_leftfinger", "panda_rightfinger", "panda_hand_tcp")  # the planner's
-# Panda hand, wider than the droid's gripper: against the fixtures the hand is checked as the gripper's solids instead
+PLANNER_HAND_LINKS = ("panda_hand", "panda_leftfinger", "panda_rightfinger", "panda_hand_tcp")  # the planner's hand:
+# its hits on a fixture are left to `gripper.hand_clear`, which checks the same solids with a margin
 POSTURE_STARTS = 200  # random starts of inverse kinematics when looking for a posture with a clear descent
 NEUTRAL_POSTURE = (0.0, np.pi / 8, 0.0, -5 * np.pi / 8, 0.0, 3 * np.pi / 4, np.pi / 4)  # the Panda's rest joints
 FIXTURE_MARGIN = 0.02  # m the fixtures grow by while a posture and the way down from it are chosen (the arm lags
@@ -93,20 +96,27 @@ def ompl_set_seed():
 def make_planner(env: RoboLabEnv):
     """An mplib planner for the robot's arm. Every supported robot has a Panda arm, so the planner uses ManiSkill's
     Panda model (with its collision pairs) and moves the flange, panda_link8; the hand on the flange differs per
-    robot and is accounted for by the flange-to-TCP transform read from the robot (see `MotionPlanner.bind`)."""
+    robot: its collision geometry is the gripper's solids at the robot's TCP (`planning_model`), and the
+    flange-to-TCP transform is read from the robot (see `MotionPlanner.bind`)."""
     import mplib
-    from mani_skill import PACKAGE_ASSET_DIR
 
     if tuple(env.robot.arm_joints) != ARM_JOINTS:
         raise OracleFailure(f"the oracle plans for Panda arms (droid, panda); robot '{env.robot_uids}' has another arm")
-    model = Path(PACKAGE_ASSET_DIR) / "robots" / "panda" / "panda_v2.urdf"
+    _, srdf = panda_model()
+    tcp = tcp_in_flange(env)
     return mplib.Planner(
-        urdf=str(model),
-        srdf=str(model.with_suffix(".srdf")),
+        urdf=str(planning_urdf(np.concatenate([tcp.p, tcp.q]))),
+        srdf=str(srdf),
         move_group=FLANGE_LINK,
         joint_vel_limits=np.full(7, PLANNING_JOINT_SPEED),
         joint_acc_limits=np.full(7, PLANNING_JOINT_ACCELERATION),
     )
+
+
+def tcp_in_flange(env: RoboLabEnv):
+    """The robot's TCP pose in its flange frame, a sapien.Pose (fixed: the hand is rigid on the flange)."""
+    flange = env.agent.robot.links_map[FLANGE_LINK].pose
+    return (flange.inv() * env.tcp_pose()).sp
 
 
 class MotionPlanner:
@@ -131,8 +141,7 @@ class MotionPlanner:
     def bind(self, env: RoboLabEnv) -> None:
         """Plan for `env` (the unwrapped RoboLabEnv): read the fixed transform from the flange to the TCP."""
         self.env = env
-        flange = env.agent.robot.links_map[FLANGE_LINK].pose
-        self.tcp_in_flange = (flange.inv() * env.tcp_pose()).sp  # fixed: the hand is rigid on the flange
+        self.tcp_in_flange = tcp_in_flange(env)
 
     # -------------------------------------------------------------------------------------------- the queue
     def mark(self) -> tuple[int, float]:
