@@ -22,8 +22,8 @@ def test_beside_the_rack_the_hand_is_the_gripper_and_the_mug_is_held_away_from_i
         oracle.reset(base.instruction, base.single_action_space, 7)
         home = oracle.motion.current_qpos()
         touching = {hit.link_name1 for hit in oracle.motion.planner.check_for_env_collision(qpos=home)}
-        assert touching == {"panda_hand"}  # the planner's Panda hand at the start posture reaches the top board ...
-        assert not oracle.motion.collides(home)  # ... the droid's gripper there does not
+        assert touching == set()  # the planner's hand is the droid's gripper: at the start posture, where the Panda
+        assert not oracle.motion.collides(home)  # hand of ManiSkill's arm model reaches the top board, it does not
         mug, rack = centre(base, "mug")[:2], centre(base, "rack_l04")[:2]
         grasp = grasp_pose(base, "mug")
         towards_rack = float((grasp[:2] - mug) @ (rack - mug)) / float(np.linalg.norm(rack - mug))
