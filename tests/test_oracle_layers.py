@@ -383,6 +383,40 @@ def test_the_planner_checks_the_robots_own_hand(motion):
     assert not hits(motion.planner, 0.03)
 
 
+def test_a_shorter_hand_keeps_the_part_of_the_solids_in_front_of_its_flange():
+    """For the Panda robot's own hand (TCP 10.3 cm from the flange) the planning model keeps the gripper's solids as
+    far as they lie in front of the flange: a block 3 cm from the flange, inside the hand's body, is a collision;
+    one behind the flange, where the wrist is the arm model's own link, is not the hand's."""
+    import mplib
+    import mplib.pymp as mp
+
+    from robolab_ms.agents.droid_model import FLANGE_LINK
+    from robolab_ms.policies.oracle.planning_model import panda_model, planning_urdf
+
+    planner = mplib.Planner(
+        urdf=str(planning_urdf(np.array([0.0, 0.0, 0.1034, 1.0, 0.0, 0.0, 0.0]))),
+        srdf=str(panda_model()[1]),
+        move_group=FLANGE_LINK,
+    )
+    qpos = np.array([0.0, -0.6, 0.0, -2.5, 0.0, 1.9, 0.8, 0.04, 0.04])
+    model = planner.pinocchio_model
+    model.compute_forward_kinematics(qpos)
+    flange = np.asarray(model.get_link_pose(planner.link_name_2_idx[FLANGE_LINK]))
+    axis = quat_to_matrix(flange[3:])[:, 2]
+    fcl = mp.collision_detection.fcl
+
+    def hand_hits(along: float) -> bool:
+        block = fcl.CollisionObject(fcl.Box(np.full(3, 0.01)), flange[:3] + along * axis, np.array([1.0, 0, 0, 0]))
+        planner.set_normal_object("block", block)
+        try:
+            return any(hit.link_name1 == "panda_hand" for hit in planner.check_for_env_collision(qpos=qpos))
+        finally:
+            planner.remove_normal_object("block")
+
+    assert hand_hits(0.03)
+    assert not hand_hits(-0.03)
+
+
 def test_a_screw_motion_that_crawls_is_refused():
     """A screw motion that moves the joints little but lasts longer than MAX_SCREW_SECONDS (tiny steps near a
     singularity) is refused like one that spins the arm round; a short one is kept."""

@@ -1,6 +1,6 @@
 """The robot model the oracle's planner checks collisions with: ManiSkill's Panda arm, its hand replaced by the
-gripper's solids (`gripper.HAND_SOLIDS`) placed at the robot's TCP; of these only the ones in front of the flange
-(the wrist behind it is the arm's own links in the model).
+gripper's solids (`gripper.HAND_SOLIDS`) placed at the robot's TCP, as far as they lie in front of the flange
+(behind it, the wrist is the arm's own links in the model).
 
 The planner moves the flange and knows nothing of the hand on it but its collision geometry, so the geometry must be
 the hand the robot carries: with ManiSkill's Panda hand (10 cm from the flange to the fingertips) a sampled joint path
@@ -18,7 +18,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from robolab_ms.agents.droid_model import absolute_meshes, cached_file, package_dir, robot_cache_dir
-from robolab_ms.policies.oracle.gripper import HAND_SOLIDS
+from robolab_ms.policies.oracle.gripper import HAND_SAMPLE, HAND_SOLIDS
 
 PANDA_MODEL = Path("assets") / "robots" / "panda" / "panda_v2"  # in the mani_skill package: .urdf and .srdf
 HAND_LINK = "panda_hand"  # the link that carries the hand's solids; the SRDF already exempts it from the wrist links
@@ -53,7 +53,8 @@ def planning_urdf(tcp_in_flange: np.ndarray) -> Path:
                 link.remove(collision)
         if link.get("name") == HAND_LINK:
             for half_x, half_y, z_from, z_to in HAND_SOLIDS:
-                if (z_from + z_to) / 2 < -flange_depth:  # the wrist: in the model already
+                z_from = max(z_from, -flange_depth)  # behind the flange: the wrist, the arm's own links in the model
+                if z_to - z_from < HAND_SAMPLE:  # nothing left, or a slab thinner than the hand is sampled at
                     continue
                 link.append(_box(tcp_in_hand, (half_x, half_y, (z_to - z_from) / 2), (z_from + z_to) / 2))
     ET.indent(root)
