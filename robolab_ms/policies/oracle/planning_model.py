@@ -18,6 +18,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from robolab_ms.agents.droid_model import absolute_meshes, cached_file, package_dir, robot_cache_dir
+from robolab_ms.policies.oracle.geometry import quat_to_matrix
 from robolab_ms.policies.oracle.gripper import HAND_SAMPLE, HAND_SOLIDS
 
 PANDA_MODEL = Path("assets") / "robots" / "panda" / "panda_v2"  # in the mani_skill package: .urdf and .srdf
@@ -43,7 +44,7 @@ def planning_urdf(tcp_in_flange: np.ndarray) -> Path:
     joint = next(element for element in root.iter("joint") if element.get("name") == HAND_JOINT)
     hand_in_flange = _origin_matrix(joint.find("origin"))
     tcp = np.eye(4)
-    tcp[:3, :3] = Rotation.from_quat(np.asarray(tcp_in_flange[3:])[[1, 2, 3, 0]]).as_matrix()
+    tcp[:3, :3] = quat_to_matrix(np.asarray(tcp_in_flange[3:]))
     tcp[:3, 3] = tcp_in_flange[:3]
     tcp_in_hand = np.linalg.inv(hand_in_flange) @ tcp
     flange_depth = float(tcp[:3, 2] @ tcp[:3, 3])  # m from the flange to the TCP along the hand's axis
