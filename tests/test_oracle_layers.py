@@ -353,13 +353,24 @@ def test_seeding_the_planner_repeats_a_sampled_path(motion):
     assert first.shape != other.shape or not np.allclose(first, other)
 
 
+def hand_meets_block(planner, qpos: np.ndarray, point: np.ndarray) -> bool:
+    """Whether the hand of mplib `planner` at joints `qpos` meets a 1-cm block at world `point`."""
+    import mplib.pymp as mp
+
+    fcl = mp.collision_detection.fcl
+    planner.set_normal_object("block", fcl.CollisionObject(fcl.Box(np.full(3, 0.01)), point, np.array([1.0, 0, 0, 0])))
+    try:
+        return any(hit.link_name1 == "panda_hand" for hit in planner.check_for_env_collision(qpos=qpos))
+    finally:
+        planner.remove_normal_object("block")
+
+
 def test_the_planner_checks_the_robots_own_hand(motion):
     """The planner's collision model carries the droid's 2F-85 (16 cm from the flange to the TCP), not the Panda hand
     of ManiSkill's arm model (10 cm): a block between the open pads, where only the 2F-85 reaches, is a collision
     for the planner, and one 3 cm beyond the fingertips is not. Without it a sampled path ran the pads into a shelf
     board."""
     import mplib
-    import mplib.pymp as mp
 
     from robolab_ms.agents.droid_model import FLANGE_LINK
     from robolab_ms.policies.oracle.planning_model import panda_model
@@ -367,20 +378,11 @@ def test_the_planner_checks_the_robots_own_hand(motion):
     qpos = motion.current_qpos()
     tcp = motion.tcp_at(qpos)
     axis = quat_to_matrix(tcp[3:])[:, 2]  # towards the fingertips
-    fcl = mp.collision_detection.fcl
     panda_hand = mplib.Planner(urdf=str(panda_model()[0]), srdf=str(panda_model()[1]), move_group=FLANGE_LINK)
 
-    def hits(planner, along: float) -> bool:
-        block = fcl.CollisionObject(fcl.Box(np.full(3, 0.01)), tcp[:3] + along * axis, np.array([1.0, 0, 0, 0]))
-        planner.set_normal_object("block", block)
-        try:
-            return any(hit.link_name1 == "panda_hand" for hit in planner.check_for_env_collision(qpos=qpos))
-        finally:
-            planner.remove_normal_object("block")
-
-    assert hits(motion.planner, -0.02)
-    assert not hits(panda_hand, -0.02)  # the arm model's own hand stops short of it
-    assert not hits(motion.planner, 0.03)
+    assert hand_meets_block(motion.planner, qpos, tcp[:3] - 0.02 * axis)
+    assert not hand_meets_block(panda_hand, qpos, tcp[:3] - 0.02 * axis)  # the arm model's own hand stops short
+    assert not hand_meets_block(motion.planner, qpos, tcp[:3] + 0.03 * axis)
 
 
 def test_a_shorter_hand_keeps_the_part_of_the_solids_in_front_of_its_flange():
@@ -388,7 +390,6 @@ def test_a_shorter_hand_keeps_the_part_of_the_solids_in_front_of_its_flange():
     far as they lie in front of the flange: a block 3 cm from the flange, inside the hand's body, is a collision;
     one behind the flange, where the wrist is the arm model's own link, is not the hand's."""
     import mplib
-    import mplib.pymp as mp
 
     from robolab_ms.agents.droid_model import FLANGE_LINK
     from robolab_ms.policies.oracle.planning_model import panda_model, planning_urdf
@@ -403,18 +404,9 @@ def test_a_shorter_hand_keeps_the_part_of_the_solids_in_front_of_its_flange():
     model.compute_forward_kinematics(qpos)
     flange = np.asarray(model.get_link_pose(planner.link_name_2_idx[FLANGE_LINK]))
     axis = quat_to_matrix(flange[3:])[:, 2]
-    fcl = mp.collision_detection.fcl
 
-    def hand_hits(along: float) -> bool:
-        block = fcl.CollisionObject(fcl.Box(np.full(3, 0.01)), flange[:3] + along * axis, np.array([1.0, 0, 0, 0]))
-        planner.set_normal_object("block", block)
-        try:
-            return any(hit.link_name1 == "panda_hand" for hit in planner.check_for_env_collision(qpos=qpos))
-        finally:
-            planner.remove_normal_object("block")
-
-    assert hand_hits(0.03)
-    assert not hand_hits(-0.03)
+    assert hand_meets_block(planner, qpos, flange[:3] + 0.03 * axis)
+    assert not hand_meets_block(planner, qpos, flange[:3] - 0.03 * axis)
 
 
 def test_a_screw_motion_that_crawls_is_refused():
