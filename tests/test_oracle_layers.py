@@ -372,8 +372,7 @@ def test_the_planner_checks_the_robots_own_hand(motion):
     board."""
     import mplib
 
-    from robolab_ms.agents.droid_model import FLANGE_LINK
-    from robolab_ms.policies.oracle.planning_model import panda_model
+    from robolab_ms.agents.droid_model import FLANGE_LINK, panda_model
 
     qpos = motion.current_qpos()
     tcp = motion.tcp_at(qpos)
@@ -391,8 +390,8 @@ def test_a_shorter_hand_keeps_the_part_of_the_solids_in_front_of_its_flange():
     one behind the flange, where the wrist is the arm model's own link, is not the hand's."""
     import mplib
 
-    from robolab_ms.agents.droid_model import FLANGE_LINK
-    from robolab_ms.policies.oracle.planning_model import panda_model, planning_urdf
+    from robolab_ms.agents.droid_model import FLANGE_LINK, panda_model
+    from robolab_ms.policies.oracle.planning_model import planning_urdf
 
     planner = mplib.Planner(
         urdf=str(planning_urdf(np.array([0.0, 0.0, 0.1034, 1.0, 0.0, 0.0, 0.0]))),

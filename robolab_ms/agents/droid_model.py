@@ -77,9 +77,15 @@ def absolute_meshes(root: ET.Element, urdf_folder: Path) -> None:
         mesh.set("filename", str((urdf_folder / mesh.get("filename")).resolve()))
 
 
+def panda_model() -> tuple[Path, Path]:
+    """ManiSkill's Panda URDF and SRDF (arm, hand and collision pairs), in the installed mani-skill package."""
+    base = package_dir("mani_skill") / "assets" / "robots" / "panda" / "panda_v2"
+    return base.with_suffix(".urdf"), base.with_suffix(".srdf")
+
+
 def _panda_arm() -> list[ET.Element]:
     """Links panda_link0..8 and their joints from ManiSkill's Panda, with DROID's limits."""
-    urdf = package_dir("mani_skill") / "assets" / "robots" / "panda" / "panda_v2.urdf"
+    urdf, _ = panda_model()
     root = ET.parse(urdf).getroot()
     absolute_meshes(root, urdf.parent)
     keep_links = {f"panda_link{i}" for i in range(9)}

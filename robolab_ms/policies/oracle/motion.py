@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robolab_ms.agents.droid_model import ARM_JOINTS, FLANGE_LINK
+from robolab_ms.agents.droid_model import ARM_JOINTS, FLANGE_LINK, panda_model
 from robolab_ms.policies.oracle.clearance import (
     APPROACH_HEIGHT,
     TRAVEL_CLEARANCE,
@@ -34,10 +34,12 @@ from robolab_ms.policies.oracle.clearance import (
 from robolab_ms.policies.oracle.failure import OracleFailure
 from robolab_ms.policies.oracle.geometry import boxes_overlap, matrix_to_quaternion, quat_to_matrix
 from robolab_ms.policies.oracle.gripper import FINGERTIP_BELOW_TCP, hand_clear
-from robolab_ms.policies.oracle.planning_model import panda_model, planning_urdf
+from robolab_ms.policies.oracle.planning_model import planning_urdf
 from robolab_ms.policies.oracle.world import fixture_boxes, world_points
 
 if TYPE_CHECKING:
+    import sapien
+
     from robolab_ms.envs.robolab_env import RoboLabEnv
 
 GRIPPER_STEPS = 8  # control steps to close or open the gripper (about half a second)
@@ -113,7 +115,7 @@ def make_planner(env: RoboLabEnv):
     )
 
 
-def tcp_in_flange(env: RoboLabEnv):
+def tcp_in_flange(env: RoboLabEnv) -> sapien.Pose:
     """The robot's TCP pose in its flange frame, a sapien.Pose (fixed: the hand is rigid on the flange)."""
     flange = env.agent.robot.links_map[FLANGE_LINK].pose
     return (flange.inv() * env.tcp_pose()).sp

@@ -17,20 +17,13 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from robolab_ms.agents.droid_model import absolute_meshes, cached_file, package_dir, robot_cache_dir
+from robolab_ms.agents.droid_model import absolute_meshes, cached_file, panda_model, robot_cache_dir
 from robolab_ms.policies.oracle.geometry import quat_to_matrix
 from robolab_ms.policies.oracle.gripper import HAND_SAMPLE, HAND_SOLIDS
 
-PANDA_MODEL = Path("assets") / "robots" / "panda" / "panda_v2"  # in the mani_skill package: .urdf and .srdf
 HAND_LINK = "panda_hand"  # the link that carries the hand's solids; the SRDF already exempts it from the wrist links
 HAND_JOINT = "panda_hand_joint"  # fixed, from the flange to HAND_LINK
 FINGER_LINKS = ("panda_leftfinger", "panda_rightfinger")  # their collision geometry is dropped (inside the solids)
-
-
-def panda_model() -> tuple[Path, Path]:
-    """ManiSkill's Panda URDF and SRDF."""
-    base = package_dir("mani_skill") / PANDA_MODEL
-    return base.with_suffix(".urdf"), base.with_suffix(".srdf")
 
 
 def planning_urdf(tcp_in_flange: np.ndarray) -> Path:
