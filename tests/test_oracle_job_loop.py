@@ -167,3 +167,37 @@ def test_a_plan_given_up_half_way_leaves_the_gripper_command_as_it_was(oracle_on
     assert motion.gripper == 0.0 and len(motion.actions) == 0
     motion.hold(motion.current_qpos(), motion.gripper, 1)
     assert motion.actions[0][7] == 0.0
+
+
+def test_a_tool_without_a_side_hold_that_can_be_planned_is_taken_from_above(monkeypatch):
+    """Where neither the job's tool nor any later tool has a side hold with a motion plan, `_side_hold` plans
+    nothing and leaves the queue as it was, so the job is planned with a grasp from above (a hold that fails
+    half-way jostles the tools beside it); where a later tool's hold can be planned, that one goes first."""
+    from collections import deque
+
+    import numpy as np
+
+    from robolab_ms.policies.oracle import OracleFailure, OraclePolicy
+    from robolab_ms.policies.oracle import policy as oracle_policy
+    from robolab_ms.policies.oracle.compile import Job
+
+    holdable: set[str] = set()
+    held: list[str] = []
+
+    def hold(motion, name, grips, tried, onto=None, at=None):
+        if name not in holdable:
+            raise OracleFailure(f"cannot hold '{name}' by its handle from the side")
+        held.append(name)
+
+    monkeypatch.setattr(oracle_policy, "side_grips", lambda env, name, fits=False: [(np.zeros(7), np.zeros(3))])
+    monkeypatch.setattr(oracle_policy, "side_hold_pick_and_place", hold)
+    oracle = OraclePolicy()
+    jobs = [Job(name, at=(0.3, 0.0)) for name in ("wood", "red", "blue")]
+
+    oracle.jobs, oracle.grasps, oracle.job = deque(jobs[1:]), {}, jobs[0]
+    assert oracle._side_hold(jobs[0]) is False
+    assert list(oracle.jobs) == jobs[1:] and oracle.job == jobs[0] and held == []
+
+    holdable.add("red")
+    assert oracle._side_hold(jobs[0]) is True
+    assert held == ["red"] and oracle.job == jobs[1] and list(oracle.jobs) == [jobs[2], jobs[0]]

@@ -281,8 +281,11 @@ class OraclePolicy(Policy):
         is a long tool in a container with its handle reaching out (`side_grips`); where both sides of it are taken,
         or no hold from its free side has a motion plan, the first later job whose object has a free side is planned
         instead and `job` goes to the back of the queue (packed tools are taken from the outside in, and a tool
-        reached only from a side the arm cannot get to waits until its neighbour is gone). Whether a job was planned;
-        the next of the holds comes first each time the job is planned again."""
+        reached only from a side the arm cannot get to waits until its neighbour is gone). Where no later job has a
+        hold that can be planned either, nothing is planned and the caller takes `job`'s object from above, as any
+        object (a hold that fails half-way, reaching in and backing out, jostles the tools beside it: tried again
+        and again, it props the tool it was waiting for up against the wall). Whether a job was planned; the next of
+        the holds comes first each time the job is planned again."""
         env = self.env
         if job.at is None and job.onto is None:
             return False
@@ -292,30 +295,30 @@ class OraclePolicy(Policy):
                 self._hold_by_handle(job, grips)
                 return True
             except OracleFailure:
-                if not self._hold_later_instead(job):
-                    raise
-                return True
+                return self._hold_later_instead(job)  # else held from above, as any object
         if side_grips(env, job.obj, fits=True):  # walled in on both sides: first one that is not
             return self._hold_later_instead(job)
         return False
 
     def _hold_later_instead(self, job: Job) -> bool:
         """Plan the first later job whose object has a side hold in place of `job`, which goes to the back of the
-        queue; False (nothing planned) where there is none."""
+        queue; False (nothing planned, the queue as it was) where there is none or its hold has no motion plan."""
         env = self.env
         later = next((other for other in self.jobs if side_grips(env, other.obj)), None)
         if later is None:
             return False
+        place = self.jobs.index(later)
         self.jobs.remove(later)
         self.jobs.append(job)
         self.job = later
         try:
             self._hold_by_handle(later, side_grips(env, later.obj))
             return True
-        except OracleFailure:  # the caller queues `job` again; `later` waits its turn, its retries unused
+        except OracleFailure:  # `later` waits its turn, its retries unused; `job` is held from above
             self.jobs.remove(job)
-            self.jobs.append(later)
-            raise
+            self.jobs.insert(place, later)
+            self.job = job
+            return False
 
     def _hold_by_handle(self, job: Job, grips: list[tuple[np.ndarray, np.ndarray]]) -> None:
         tried = self.grasps.setdefault(job.obj, [])
