@@ -2,7 +2,8 @@
 and BananasOutOfBin, a mug held by its wall, a phone reached under an overhang, a measuring cup held by its handle,
 fixture scenes for stacking, standing a block up and standing a lying mug up, a lying jug stood up by its neck, a
 stack taken apart from the top, the shelf cover, a square box closed on across its faces, a job planned again
-after its object slipped out of the hand, a can as wide as the open fingers held off its middle, all the fruits
+after its object slipped out of the hand, a can as wide as the open fingers held off its middle, one wider than
+them lifted upright, all the fruits
 set onto a plate largest first, a wooden spoon's handle centred between the pads, and a reach past a crate's wall
 that does not catch its rim."""
 
@@ -409,12 +410,20 @@ def test_a_fork_beside_a_plate_is_grasped_where_the_closing_pads_miss_the_plate(
 
 def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path):
     """The tuna can (8.6 cm) is as wide as the open fingers: held through its middle, the opened pads still pressed
-    on it and lifted it back out of the bin. The oracle closes on a chord off its middle that fits between the open
-    fingers with room, and FoodPacking2Cans (a seed where the can used to stay in the hand) is solved."""
+    on it and lifted it back out of the bin. The oracle closes on a chord off its middle, as near the middle as the
+    open fingers pass it and let go of it with room, and FoodPacking2Cans (a seed where the can used to stay in the
+    hand) is solved."""
     import numpy as np
 
-    from robolab_ms.policies.oracle.grasps import grasp_pose, round_section
-    from robolab_ms.policies.oracle.gripper import FINGER_HALF_WIDTH, MAX_GRASP_WIDTH
+    from robolab_ms.policies.oracle.grasps import (
+        CHORD_ROOM,
+        CHORD_STEP,
+        RELEASE_ROOM,
+        circle_chord,
+        grasp_pose,
+        round_section,
+    )
+    from robolab_ms.policies.oracle.gripper import FINGER_HALF_WIDTH, OPEN_FINGER_GAP, PAD_HALF_WIDTH
     from robolab_ms.policies.oracle.world import world_points
 
     results = run_evaluation(
@@ -437,9 +446,45 @@ def test_oracle_holds_a_can_as_wide_as_the_open_fingers_off_its_middle(tmp_path)
         grasp = grasp_pose(base, "tuna_can")
         centre = (points.max(axis=0) + points.min(axis=0)) / 2
         radius = np.linalg.norm(points[:, :2] - centre[:2], axis=1).max()
-        inner = np.linalg.norm(grasp[:2] - centre[:2]) - FINGER_HALF_WIDTH  # the pads' edge nearest the middle
-        assert 0.0 < inner < radius
-        assert 2 * np.sqrt(radius**2 - inner**2) <= MAX_GRASP_WIDTH
+        shift = float(np.linalg.norm(grasp[:2] - centre[:2]))
+
+        def fits(shift: float) -> bool:
+            passed = circle_chord(radius, shift - FINGER_HALF_WIDTH)  # between the open fingers on the way down
+            pressed = circle_chord(radius, shift - PAD_HALF_WIDTH)  # between the pads, let go of
+            return passed <= OPEN_FINGER_GAP - 2 * CHORD_ROOM and pressed <= OPEN_FINGER_GAP - 2 * RELEASE_ROOM
+
+        assert 0.0 < shift < radius
+        assert fits(shift + 0.0015)  # the footprint's middle is within a millimetre or so of the can's
+        assert not fits(shift - 3 * CHORD_STEP)  # and no nearer the middle than the fingers allow
+    finally:
+        env.close()
+
+
+def test_oracle_lifts_a_can_wider_than_the_open_fingers_upright():
+    """The 10.2-cm coffee can is wider than the open fingers (8.6 cm): only a chord off its middle fits between
+    them, and its weight turns it about the line between the pads. The oracle's chord grasp lifts it 10 cm and it
+    stays upright in the hand (3.6 cm off its axis instead of 3.4, it swung down out of the pads)."""
+    import gymnasium as gym
+    import numpy as np
+
+    from robolab_ms.policies.oracle.grasps import grasp_pose
+    from robolab_ms.policies.oracle.skills import pick_and_place
+
+    env = gym.make("RoboLab-FoodPackingByColor-v1", obs_mode="state_dict", render_backend="cpu")
+    try:
+        env.reset(seed=0)
+        base = env.unwrapped
+        oracle = make_policy("oracle")
+        oracle.bind(env)
+        oracle.reset(base.instruction, base.single_action_space, 0)
+        bottom = float(base.objects["coffee_can"].pose.p[0, 2])
+        pick_and_place(oracle.motion, "coffee_can", grasp_pose(base, "coffee_can"), lift=0.1)
+        while oracle.motion.actions:
+            env.step(oracle.motion.actions.popleft())
+        risen = float(base.objects["coffee_can"].pose.p[0, 2]) - bottom
+        up = base.eval_context.up_axis("coffee_can")[0]
+        assert risen > 0.08, risen
+        assert float(up[2]) > np.cos(np.radians(10.0)), up
     finally:
         env.close()
 

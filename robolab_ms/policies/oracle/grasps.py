@@ -36,6 +36,7 @@ from robolab_ms.policies.oracle.gripper import (
     OPEN_FINGER_GAP,
     OPEN_FINGER_REACH,
     PAD_BELOW_TCP,
+    PAD_HALF_WIDTH,
     PAD_LENGTH,
     WRIST_HALF,
     pad_drop,
@@ -104,8 +105,9 @@ HANDLE_INSET = 0.015  # m in from the handle's end where the middle of the pads 
 # chord grasps of round cans
 ROUNDNESS = 1.08  # a section whose widest spread is at most this many times its narrowest is round
 ROUND_DIRECTIONS = 24  # horizontal directions in which the spread is measured for roundness
-CHORD_STEP = 0.003  # m between the sideways shifts tried
-CHORD_ROOM = 0.002  # m the widest chord between the pads is narrower than MAX_GRASP_WIDTH (room on the way down)
+CHORD_STEP = 0.001  # m between the sideways shifts tried (on a 10-cm can, 2 mm further off the middle let it swing)
+CHORD_ROOM = 0.001  # m either side between the open fingers and the widest chord they pass on the way down
+RELEASE_ROOM = 0.003  # m either side between the opened pads and the chord they let go of
 END_SHARE = 0.2  # the top and the bottom part of an object's height, whose widths are compared with the whole
 STRAIGHT_SHARE = 0.95  # a part at least this share of the whole width is as wide
 MIN_CHORD_SHARE = 0.6  # the chord held is at least this share of the diameter (the pads' edges keep a hold)
@@ -531,15 +533,19 @@ def chord_grasp(
     through_height: float,
 ) -> tuple[np.ndarray, float, np.ndarray] | None:
     """(xy, z, closing) of a grasp of the round object `name` (world `points`, footprint middle `middle`) off its
-    middle, where the widest chord between the pads (FINGER_HALF_WIDTH either side of their line; a circle of the
-    object's radius, as its surface points may be sparse) is CHORD_ROOM narrower than MAX_GRASP_WIDTH; None where
+    middle, as near the middle as the open fingers pass the can and let go of it: the widest chord between the
+    fingers (FINGER_HALF_WIDTH either side of their line; a circle of the object's radius, as its surface points may
+    be sparse) leaves CHORD_ROOM either side of them open, and the chord where the pads press (their edge nearest
+    the middle, PAD_HALF_WIDTH off their line) RELEASE_ROOM either side of the opened pads; None where
     the object is no standing can (`round_section`, `straight_sided`), a grasp through its middle at TCP height
     `through_height` fits (what lies lower stays below the fingers: a bottle's neck), or no chord does. Of the
     closing `directions` and the two sides, the one whose hand clears the neighbours best, then the one away from
     grasps in `failed`, then the nearest to the robot (the arm reaches it most easily). A can as wide
     as the open fingers, held through its middle, stays between the opened pads (they still press on it); a pair of
-    pads moved sideways off the middle closes on a narrower chord, and the squeeze, which pushes the can out along
-    the pads, stays within what friction holds while the chord is at least MIN_CHORD_SHARE of the diameter."""
+    pads moved sideways off the middle closes on a narrower chord. The further off the middle, the weaker the hold:
+    the squeeze pushes the can out along the pads, and its weight turns it about the line between the pads (a
+    10.2-cm can held 3.4 cm off its axis rises, held 3.6 cm off it swings down out of the pads); no chord narrower
+    than MIN_CHORD_SHARE of the diameter is tried."""
     if env.eval_context.entries[name].is_container or not round_section(points) or not straight_sided(points):
         return None
     radius = float(np.linalg.norm(points[:, :2] - middle[:2], axis=1).max())
@@ -554,11 +560,11 @@ def chord_grasp(
             return None  # it fits through the middle: the grasp across it
         for side in (1.0, -1.0):
             for shift in np.arange(FINGER_HALF_WIDTH, radius + FINGER_HALF_WIDTH, CHORD_STEP):
-                inner = shift - FINGER_HALF_WIDTH  # the pads' edge nearest the middle: the widest chord is there
-                chord = 2.0 * float(np.sqrt(max(radius**2 - inner**2, 0.0)))
-                if chord < MIN_CHORD_SHARE * 2 * radius:
+                passed = circle_chord(radius, shift - FINGER_HALF_WIDTH)  # the fingers' edge nearest the middle
+                pressed = circle_chord(radius, shift - PAD_HALF_WIDTH)  # the pads' edge nearest the middle
+                if pressed < MIN_CHORD_SHARE * 2 * radius:
                     break
-                if chord > MAX_GRASP_WIDTH - CHORD_ROOM:
+                if passed > OPEN_FINGER_GAP - 2 * CHORD_ROOM or pressed > OPEN_FINGER_GAP - 2 * RELEASE_ROOM:
                     continue
                 xy = middle[:2] + along * side * shift
                 slab = points[np.abs(offsets - side * shift) < FINGER_HALF_WIDTH]
@@ -573,6 +579,11 @@ def chord_grasp(
                     best, best_key = (xy, z, direction), key
                 break
     return best
+
+
+def circle_chord(radius: float, offset: float) -> float:
+    """The length of the chord of a circle of `radius` at `offset` from its middle (0 beyond the circle)."""
+    return 2.0 * float(np.sqrt(max(radius**2 - offset**2, 0.0)))
 
 
 def end_grasp(env: RoboLabEnv, name: str, up: np.ndarray) -> np.ndarray | None:
