@@ -170,9 +170,10 @@ def test_a_plan_given_up_half_way_leaves_the_gripper_command_as_it_was(oracle_on
 
 
 def test_a_tool_without_a_side_hold_that_can_be_planned_is_taken_from_above(monkeypatch):
-    """Where neither the job's tool nor any later tool has a side hold with a motion plan, `_side_hold` plans
-    nothing and leaves the queue as it was, so the job is planned with a grasp from above (a hold that fails
-    half-way jostles the tools beside it); where a later tool's hold can be planned, that one goes first."""
+    """Where neither the job's tool nor the first later tool has a side hold with a motion plan, `_side_hold` plans
+    nothing, so the job is planned with a grasp from above (a hold that fails half-way jostles the tools beside it),
+    and that later tool goes after the others (the next try starts from another one); where a later tool's hold can
+    be planned, that one goes first and the job goes to the back."""
     from collections import deque
 
     import numpy as np
@@ -196,8 +197,9 @@ def test_a_tool_without_a_side_hold_that_can_be_planned_is_taken_from_above(monk
 
     oracle.jobs, oracle.grasps, oracle.job = deque(jobs[1:]), {}, jobs[0]
     assert oracle._side_hold(jobs[0]) is False
-    assert list(oracle.jobs) == jobs[1:] and oracle.job == jobs[0] and held == []
+    assert list(oracle.jobs) == [jobs[2], jobs[1]] and oracle.job == jobs[0] and held == []
 
+    oracle.jobs = deque(jobs[1:])
     holdable.add("red")
     assert oracle._side_hold(jobs[0]) is True
     assert held == ["red"] and oracle.job == jobs[1] and list(oracle.jobs) == [jobs[2], jobs[0]]

@@ -281,11 +281,11 @@ class OraclePolicy(Policy):
         is a long tool in a container with its handle reaching out (`side_grips`); where both sides of it are taken,
         or no hold from its free side has a motion plan, the first later job whose object has a free side is planned
         instead and `job` goes to the back of the queue (packed tools are taken from the outside in, and a tool
-        reached only from a side the arm cannot get to waits until its neighbour is gone). Where no later job has a
-        hold that can be planned either, nothing is planned and the caller takes `job`'s object from above, as any
-        object (a hold that fails half-way, reaching in and backing out, jostles the tools beside it: tried again
-        and again, it props the tool it was waiting for up against the wall). Whether a job was planned; the next of
-        the holds comes first each time the job is planned again."""
+        reached only from a side the arm cannot get to waits until its neighbour is gone). Where that job's hold
+        cannot be planned either, it goes to the back of the queue, nothing is planned and the caller takes `job`'s
+        object from above, as any object (a hold that fails half-way, reaching in and backing out, jostles the tools
+        beside it: tried again and again, it props the tool it was waiting for up against the wall). Whether a job
+        was planned; the next of the holds comes first each time the job is planned again."""
         env = self.env
         if job.at is None and job.onto is None:
             return False
@@ -302,21 +302,22 @@ class OraclePolicy(Policy):
 
     def _hold_later_instead(self, job: Job) -> bool:
         """Plan the first later job whose object has a side hold in place of `job`, which goes to the back of the
-        queue; False (nothing planned, the queue as it was) where there is none or its hold has no motion plan."""
+        queue; False (nothing planned) where there is none or its hold has no motion plan, `later` then going to the
+        back of the queue (the next try starts from another tool: the order of packed tools decides which holds can
+        be planned)."""
         env = self.env
         later = next((other for other in self.jobs if side_grips(env, other.obj)), None)
         if later is None:
             return False
-        place = self.jobs.index(later)
         self.jobs.remove(later)
         self.jobs.append(job)
         self.job = later
         try:
             self._hold_by_handle(later, side_grips(env, later.obj))
             return True
-        except OracleFailure:  # `later` waits its turn, its retries unused; `job` is held from above
+        except OracleFailure:  # `later` goes after the others, its retries unused; `job` is held from above
             self.jobs.remove(job)
-            self.jobs.insert(place, later)
+            self.jobs.append(later)
             self.job = job
             return False
 
