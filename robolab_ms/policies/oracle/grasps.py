@@ -544,8 +544,8 @@ def chord_grasp(
     as the open fingers, held through its middle, stays between the opened pads (they still press on it); a pair of
     pads moved sideways off the middle closes on a narrower chord. The further off the middle, the weaker the hold:
     the squeeze pushes the can out along the pads, and its weight turns it about the line between the pads (a
-    10.2-cm can held 3.4 cm off its axis rises, held 3.6 cm off it swings down out of the pads); no chord narrower
-    than MIN_CHORD_SHARE of the diameter is tried."""
+    10.2-cm can pressed by the pads' edges 3.4 cm off its axis rises, 3.6 cm off it swings down out of the pads);
+    no chord narrower than MIN_CHORD_SHARE of the diameter is tried."""
     if env.eval_context.entries[name].is_container or not round_section(points) or not straight_sided(points):
         return None
     radius = float(np.linalg.norm(points[:, :2] - middle[:2], axis=1).max())
