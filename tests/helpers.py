@@ -1,5 +1,5 @@
-"""Helpers shared by the tests: physics set-ups, a task's scene at reset, and killing a parallel run as a crash
-would."""
+"""Helpers shared by the tests: physics set-ups, a task's scene at reset (with the oracle bound to it), and killing a
+parallel run as a crash would."""
 
 import os
 import signal
@@ -32,6 +32,19 @@ def task_at_reset(task: str, seed: int) -> Iterator:
         yield env.unwrapped
     finally:
         env.close()
+
+
+@contextmanager
+def oracle_at_reset(task: str, seed: int) -> Iterator:
+    """`task_at_reset`'s environment with the oracle bound to it and reset for `seed`: (the unwrapped environment,
+    the oracle)."""
+    from robolab_ms.policies import make_policy
+
+    with task_at_reset(task, seed) as base:
+        oracle = make_policy("oracle")
+        oracle.bind(base)
+        oracle.reset(base.instruction, base.single_action_space, seed)
+        yield base, oracle
 
 
 def put(env, name, xyz, quat=(1.0, 0.0, 0.0, 0.0)):

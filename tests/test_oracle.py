@@ -8,7 +8,7 @@ set onto a plate largest first, a wooden spoon's handle centred between the pads
 that does not catch its rim."""
 
 import pytest
-from helpers import put
+from helpers import oracle_at_reset, put
 
 from robolab_ms.cli import main
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
@@ -463,29 +463,20 @@ def test_oracle_lifts_a_can_wider_than_the_open_fingers_upright():
     """The 10.2-cm coffee can is wider than the open fingers (8.6 cm): only a chord off its middle fits between
     them, and its weight turns it about the line between the pads. The oracle's chord grasp lifts it 10 cm and it
     stays upright in the hand (3.6 cm off its axis instead of 3.4, it swung down out of the pads)."""
-    import gymnasium as gym
     import numpy as np
 
     from robolab_ms.policies.oracle.grasps import grasp_pose
     from robolab_ms.policies.oracle.skills import pick_and_place
 
-    env = gym.make("RoboLab-FoodPackingByColor-v1", obs_mode="state_dict", render_backend="cpu")
-    try:
-        env.reset(seed=0)
-        base = env.unwrapped
-        oracle = make_policy("oracle")
-        oracle.bind(env)
-        oracle.reset(base.instruction, base.single_action_space, 0)
+    with oracle_at_reset("FoodPackingByColor", 0) as (base, oracle):
         bottom = float(base.objects["coffee_can"].pose.p[0, 2])
         pick_and_place(oracle.motion, "coffee_can", grasp_pose(base, "coffee_can"), lift=0.1)
         while oracle.motion.actions:
-            env.step(oracle.motion.actions.popleft())
+            base.step(oracle.motion.actions.popleft())
         risen = float(base.objects["coffee_can"].pose.p[0, 2]) - bottom
         up = base.eval_context.up_axis("coffee_can")[0]
         assert risen > 0.08, risen
         assert float(up[2]) > np.cos(np.radians(10.0)), up
-    finally:
-        env.close()
 
 
 def test_oracle_leaves_room_for_the_second_carton_on_a_small_box_top(tmp_path):

@@ -1,25 +1,18 @@
 """The oracle beside a shelf (policies/oracle/motion.py): the hand is checked against the rack as the real
 gripper, a mug is held by the side of its wall away from the rack, and a bowl beside the rack goes onto its top."""
 
-import gymnasium as gym
 import numpy as np
 import pytest
+from helpers import oracle_at_reset
 
 from robolab_ms.eval.runner import EvalConfig, run_evaluation
 from robolab_ms.policies import make_policy
 from robolab_ms.policies.oracle.grasps import grasp_pose
 from robolab_ms.policies.oracle.world import centre
-from robolab_ms.tasks.spec import load_task
 
 
 def test_beside_the_rack_the_hand_is_the_gripper_and_the_mug_is_held_away_from_it():
-    env = gym.make(load_task("PutMugsOnShelf").env_id, obs_mode="state_dict")
-    try:
-        env.reset(seed=7)
-        base = env.unwrapped
-        oracle = make_policy("oracle")
-        oracle.bind(env)
-        oracle.reset(base.instruction, base.single_action_space, 7)
+    with oracle_at_reset("PutMugsOnShelf", 7) as (base, oracle):
         home = oracle.motion.current_qpos()
         touching = {hit.link_name1 for hit in oracle.motion.planner.check_for_env_collision(qpos=home)}
         assert touching == set()  # the planner's hand is the droid's gripper: at the start posture, where the Panda
@@ -28,8 +21,6 @@ def test_beside_the_rack_the_hand_is_the_gripper_and_the_mug_is_held_away_from_i
         grasp = grasp_pose(base, "mug")
         towards_rack = float((grasp[:2] - mug) @ (rack - mug)) / float(np.linalg.norm(rack - mug))
         assert towards_rack < 0.005  # a wall on the far side from the rack or across it, never the wall facing it
-    finally:
-        env.close()
 
 
 @pytest.mark.slow
