@@ -3,9 +3,8 @@ and BananasOutOfBin, a mug held by its wall, a phone reached under an overhang, 
 fixture scenes for stacking, standing a block up and standing a lying mug up, a lying jug stood up by its neck, a
 stack taken apart from the top, the shelf cover, a square box closed on across its faces, a job planned again
 after its object slipped out of the hand, a can as wide as the open fingers held off its middle, one wider than
-them lifted upright, all the fruits
-set onto a plate largest first, a wooden spoon's handle centred between the pads, and a reach past a crate's wall
-that does not catch its rim."""
+them lifted upright, all the fruits set onto a plate largest first, a wooden spoon's handle centred between the
+pads, and a reach past a crate's wall that does not catch its rim."""
 
 import pytest
 from helpers import oracle_at_reset, put
