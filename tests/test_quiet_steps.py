@@ -39,3 +39,22 @@ def test_moving_an_object_ends_the_reuse(lab):
     for _ in range(30):
         _, _, _, _, info = lab.step(action)
     assert bool(info["success"])
+
+
+def _quiet_while_closing(env) -> int:
+    """Close the gripper in the air with the arm held: how many of those steps reused the last result."""
+    settle(env)
+    before = env.task_evaluator.quiet_steps
+    action = hold_arm_action(env, 1.0)
+    for _ in range(20):
+        env.step(action)
+    return env.task_evaluator.quiet_steps - before
+
+
+def test_the_gripper_closing_ends_the_reuse_only_where_events_are_tracked(lab):
+    lab.task_evaluator.track_events = False  # as in `robolab validate`'s random episodes
+    assert _quiet_while_closing(lab) == 20
+    lab.task_evaluator.track_events = True
+    for _ in range(20):
+        lab.step(hold_arm_action(lab, 0.0))  # open again
+    assert _quiet_while_closing(lab) < 20  # its closed fraction crosses the event thresholds

@@ -4,10 +4,11 @@ It owns the task's per-step logic: success conditions (OR'ed), the subtask progr
 all reading one EvalContext. The environment feeds it the step counter and the gripper's closed fraction.
 
 Quiet steps. On the CPU simulator, a step in which every tracked object is asleep (PhysX moved none of them), the
-fingers' contacts are exactly those of the previous step and the gripper's closed fraction is on the same side of
-every event threshold, cannot change any predicate, the progress or an event: the previous step's result is returned without evaluating anything. The previous step
-must itself have been a full evaluation that left the subtask stage unchanged (a new stage reads its own
-conditions for the first time). Reset, and the GPU simulator, always evaluate in full.
+fingers' contacts are exactly those of the previous step and (where events are tracked: no predicate reads it) the
+gripper's closed fraction is on the same side of every event threshold, cannot change any predicate, the progress or
+an event: the previous step's result is returned without evaluating anything. The previous step must itself have
+been a full evaluation that left the subtask stage unchanged (a new stage reads its own conditions for the first
+time). Reset, and the GPU simulator, always evaluate in full.
 """
 
 from __future__ import annotations
@@ -57,10 +58,16 @@ class TaskEvaluator:
         context = self.context
         context.refresh(elapsed_steps)
         finger_contacts = context.finger_contacts_if_at_rest()
-        closed_levels = self.events.closed_levels(gripper_closed) if finger_contacts is not None else None
+        closed_levels = None  # only events read the gripper's closed fraction
+        if finger_contacts is not None and self.track_events:
+            closed_levels = self.events.closed_levels(gripper_closed)
         if finger_contacts is not None and self._last is not None:
             last_contacts, last_levels = self._last_inputs
-            if finger_contacts == last_contacts and torch.equal(closed_levels, last_levels):
+            if closed_levels is None or last_levels is None:  # events not tracked (or not then)
+                same_levels = closed_levels is None and last_levels is None
+            else:
+                same_levels = torch.equal(closed_levels, last_levels)
+            if finger_contacts == last_contacts and same_levels:
                 self.quiet_steps += 1
                 return dict(self._last, **self.events.nothing_fired)
         stage_before = self.progress_tracker.stage_index
