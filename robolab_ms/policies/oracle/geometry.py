@@ -118,7 +118,11 @@ def boxes_overlap(first: Box, second: Box, margin: float) -> bool:
 
 def inside_boxes(points: np.ndarray, boxes: list[Box], margin: float) -> bool:
     """Whether any of the world `points` (N, 3) lies within `margin` of one of the `boxes`."""
-    return any(
-        bool(np.any(np.all(np.abs((points - centre) @ rotation) <= half + margin, axis=1)))
-        for rotation, centre, half in boxes
-    )
+    middle = points.mean(axis=0)
+    radius = float(np.sqrt(((points - middle) ** 2).sum(axis=1).max()))  # the points lie in this ball
+    for rotation, centre, half in boxes:
+        if float(np.linalg.norm(middle - centre)) > radius + float(np.linalg.norm(half + margin)):
+            continue  # the ball round the points misses the ball round the grown box
+        if np.any(np.all(np.abs((points - centre) @ rotation) <= half + margin, axis=1)):
+            return True
+    return False

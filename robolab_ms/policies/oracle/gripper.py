@@ -5,6 +5,8 @@ reach less far), so these are on the safe side for all of them."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from robolab_ms.agents.droid_model import OPEN_PAD_GAP
@@ -42,14 +44,20 @@ def pad_drop(width: float) -> float:
     return float(np.interp(width, PAD_DROP_WIDTHS, PAD_DROP))
 
 
-def hand_points(pose: np.ndarray) -> np.ndarray:
-    """Points sampling the hand's solids (HAND_SOLIDS) at TCP pose [x, y, z, qw, qx, qy, qz], in the world (N, 3)."""
+@functools.cache
+def hand_samples() -> np.ndarray:
+    """Points sampling the hand's solids (HAND_SOLIDS) HAND_SAMPLE apart, in the TCP frame (N, 3)."""
     local = []
     for half_x, half_y, z_from, z_to in HAND_SOLIDS:
         axes = [np.linspace(-h, h, max(2, int(np.ceil(2 * h / HAND_SAMPLE)) + 1)) for h in (half_x, half_y)]
         zs = np.linspace(z_from, z_to, max(2, int(np.ceil((z_to - z_from) / HAND_SAMPLE)) + 1))
         local.append(np.stack(np.meshgrid(*axes, zs), axis=-1).reshape(-1, 3))
-    return np.concatenate(local) @ quat_to_matrix(pose[3:]).T + pose[:3]
+    return np.concatenate(local)
+
+
+def hand_points(pose: np.ndarray) -> np.ndarray:
+    """Points sampling the hand's solids (HAND_SOLIDS) at TCP pose [x, y, z, qw, qx, qy, qz], in the world (N, 3)."""
+    return hand_samples() @ quat_to_matrix(pose[3:]).T + pose[:3]
 
 
 def hand_clear(pose: np.ndarray, boxes: list[Box], margin: float = HAND_FIXTURE_MARGIN) -> bool:
