@@ -177,24 +177,6 @@ def test_the_motion_planner_reaches_a_pose_on_a_collision_free_path(motion):
         assert not motion.collides(posture)
 
 
-def test_inverse_kinematics_stops_at_the_first_posture_for_a_test_of_reach_and_fails_out_of_reach(motion):
-    target = raised(grasp_pose(motion.env, "red"), APPROACH_HEIGHT)
-    start = motion.current_qpos()
-    status, every = motion.ik(target, start, starts=20)
-    assert status == "Success" and len(every) >= 2  # the arm reaches a pose over the table in more than one way
-    for one, other in zip(every, every[1:]):
-        assert np.linalg.norm(one[:7] - other[:7]) >= 0.1  # distinct postures
-    status, first = motion.ik(target, start, starts=20, first=True)
-    assert status == "Success" and len(first) == 1
-    reached = start.copy()
-    reached[:7] = first[0][:7]
-    assert np.allclose(motion.tcp_at(reached)[:3], target[:3], atol=1e-3) and not motion.collides(reached)
-    far = target.copy()
-    far[:3] = [1.6, 0.0, 0.3]  # twice the arm's reach
-    status, none = motion.ik(far, start, starts=5)
-    assert status.startswith("IK Failed") and none == []
-
-
 def test_points_inside_a_box_are_found_as_without_the_bounding_ball():
     from robolab_ms.policies.oracle.geometry import inside_boxes, rotation_about
 

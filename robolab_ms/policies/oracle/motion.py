@@ -44,13 +44,7 @@ if TYPE_CHECKING:
 
 GRIPPER_STEPS = 8  # control steps to close or open the gripper (about half a second)
 SETTLE_STEPS = 3  # control steps held at the end of every move, for the PD controller to catch up
-IK_STARTS = 20  # starts of inverse kinematics: the current posture, then random ones
-IK_RETRIES = 200  # random starts for inverse kinematics when IK_STARTS found no solution
-IK_ITERATIONS = 1000  # iterations of closed-loop inverse kinematics from one start (mplib's default): most runs
-# that converge take under 300, but at the edge of the reach some need more (capped at 300, HammersInLeftBin lost 3
-# of 10 seeds: no spot in the bin was found reached from above), and a run that cannot converge runs them all
-IK_TOLERANCE = 1e-3  # largest distance (m plus quaternion distance) of a solution's flange pose from the goal
-IK_DISTINCT = 0.1  # rad (norm over the joints) between two postures that count as different solutions
+IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
 PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
 JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-collision along a joint path
@@ -209,48 +203,12 @@ class MotionPlanner:
         tcp = sapien.Pose(p=flange[:3], q=flange[3:]) * self.tcp_in_flange
         return np.concatenate([tcp.p, tcp.q])
 
-    def ik(
-        self, pose: np.ndarray, qpos: np.ndarray, starts: int = IK_STARTS, first: bool = False
-    ) -> tuple[str, list[np.ndarray]]:
-        """Inverse kinematics for TCP `pose` (`flange_ik`)."""
-        return self.flange_ik(self.flange_target(pose), qpos, starts, first)
-
-    def flange_ik(
-        self, flange_pose: np.ndarray, qpos: np.ndarray, starts: int = IK_STARTS, first: bool = False
-    ) -> tuple[str, list[np.ndarray]]:
-        """Distinct collision-free postures (planning-model joints) that put the flange at `flange_pose`, from
-        closed-loop inverse kinematics started at posture `qpos` and then at random postures (drawn by the
-        planner's seeded generator), `starts` runs in all, or only until the first solution when `first` (a test
-        of reach). (status, postures): status "Success", else why none was found, in mplib's words."""
-        planner = self.planner
-        model, world = planner.pinocchio_model, planner.planning_world
-        link, group = planner.link_name_2_idx[planner.move_group], planner.move_group_joint_indices
-        postures: list[np.ndarray] = []
-        nearest = np.inf  # of the valid postures found: the distance of their flange pose from the goal
-        start = np.array(qpos, dtype=np.float64)
-        for _ in range(starts):
-            joints = model.compute_IK_CLIK(link, flange_pose, start, [], max_iter=IK_ITERATIONS)[0]
-            start = model.get_random_configuration()
-            if not planner.wrap_joint_limit(joints):  # turns revolute joints into their range, else False
-                continue
-            world.set_qpos_all(joints[group])
-            if world.collide_full():
-                continue
-            model.compute_forward_kinematics(joints)
-            reached = np.asarray(model.get_link_pose(link))
-            distance = planner.distance_6D(flange_pose[:3], flange_pose[3:], reached[:3], reached[3:])
-            nearest = min(nearest, distance)
-            if distance >= IK_TOLERANCE:
-                continue
-            if all(np.linalg.norm(found[group] - joints[group]) >= IK_DISTINCT for found in postures):
-                postures.append(joints)
-                if first:
-                    break
-        if postures:
-            return "Success", postures
-        if np.isfinite(nearest):
-            return f"IK Failed! Distance {nearest:f} is greater than threshold {IK_TOLERANCE:f}.", postures
-        return "IK Failed! Cannot find valid solution.", postures
+    def ik(self, pose: np.ndarray, qpos: np.ndarray, starts: int | None = None) -> tuple[str, list[np.ndarray]]:
+        """Inverse kinematics for TCP `pose` from posture `qpos` (the planner's own random starts, or `starts`):
+        (status, postures)."""
+        if starts is None:
+            return self.planner.IK(self.flange_target(pose), qpos)
+        return self.planner.IK(self.flange_target(pose), qpos, n_init_qpos=starts)
 
     # -------------------------------------------------------------------------------------------- collisions
     def sync_fixtures(self) -> None:
@@ -453,14 +411,15 @@ class MotionPlanner:
     def move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
         """Queue the actions of one move to TCP `pose`, a straight line if `straight` and one can be planned;
         returns the final joints. OracleFailure, saying `what` could not be done, where no move is planned."""
+        planner = self.planner
         pose = self.flange_target(pose)
         result = self.plan_straight(pose, qpos) if straight else {"status": "not tried"}
         if straight and result["status"] != "Success":  # at the edge of the workspace: a straight line that may miss
             result = self.screw(pose, qpos)  # the pose by a centimetre, or none
         if result["status"] != "Success":
-            status, goals = self.flange_ik(pose, qpos)
+            status, goals = planner.IK(pose, qpos)
             if status != "Success":  # near the edge of the workspace: try harder
-                status, goals = self.flange_ik(pose, qpos, IK_RETRIES)
+                status, goals = planner.IK(pose, qpos, n_init_qpos=IK_RETRIES)
             result = self.plan_to_joints(goals, qpos) if status == "Success" else {"status": status}
         if result["status"] != "Success":
             raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
@@ -475,10 +434,10 @@ class MotionPlanner:
             raise OracleFailure(f"cannot {what}: no straight move")
         return self.queue(qpos, paths[0])
 
-    def can_lower(self, over: np.ndarray, place: np.ndarray, starts: int = IK_STARTS) -> bool:
-        """Whether the arm reaches TCP pose `over` (by inverse kinematics from `starts` starts, the first posture
-        found) and from there moves straight to `place`."""
-        status, postures = self.ik(over, self.current_qpos(), starts, first=True)
+    def can_lower(self, over: np.ndarray, place: np.ndarray, starts: int | None = None) -> bool:
+        """Whether the arm reaches TCP pose `over` (by inverse kinematics, from the planner's own random starts or
+        `starts` of them) and from there moves straight to `place`."""
+        status, postures = self.ik(over, self.current_qpos(), starts)
         if status != "Success":
             return False
         start = self.current_qpos()

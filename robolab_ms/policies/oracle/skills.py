@@ -291,7 +291,7 @@ def placing_reach(motion: MotionPlanner, name: str, grasp: np.ndarray) -> Reacha
         way = front_place_way(motion, name, grasp, place)
         if way is None:
             return False
-        status, postures = motion.ik(way, motion.current_qpos(), first=True)
+        status, postures = motion.ik(way, motion.current_qpos())
         if status != "Success":
             return False
         start = motion.current_qpos()
@@ -428,7 +428,7 @@ def reachable_above(motion: MotionPlanner, grasp: np.ndarray, over: np.ndarray) 
             pose = grasp.copy()
             pose[:2] += toward * back
             pose[2] = height
-            status, _ = motion.ik(pose, motion.current_qpos(), IK_RETRIES, first=True)
+            status, _ = motion.ik(pose, motion.current_qpos(), IK_RETRIES)
             if status == "Success":
                 return pose
     return over
