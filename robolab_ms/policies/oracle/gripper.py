@@ -52,7 +52,9 @@ def hand_samples() -> np.ndarray:
         axes = [np.linspace(-h, h, max(2, int(np.ceil(2 * h / HAND_SAMPLE)) + 1)) for h in (half_x, half_y)]
         zs = np.linspace(z_from, z_to, max(2, int(np.ceil((z_to - z_from) / HAND_SAMPLE)) + 1))
         local.append(np.stack(np.meshgrid(*axes, zs), axis=-1).reshape(-1, 3))
-    return np.concatenate(local)
+    samples = np.concatenate(local)
+    samples.setflags(write=False)  # shared by every call
+    return samples
 
 
 def hand_points(pose: np.ndarray) -> np.ndarray:
