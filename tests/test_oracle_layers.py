@@ -177,6 +177,59 @@ def test_the_motion_planner_reaches_a_pose_on_a_collision_free_path(motion):
         assert not motion.collides(posture)
 
 
+def ik_targets(motion) -> list[np.ndarray]:
+    """TCP poses over every object of the lab scene, and one far out of the arm's reach."""
+    targets = [raised(grasp_pose(motion.env, name), APPROACH_HEIGHT) for name in ("red", "green", "blue", "mug")]
+    far = targets[0].copy()
+    far[:3] = [1.6, 0.0, 0.3]
+    return [*targets, far]
+
+
+def test_inverse_kinematics_finds_the_postures_mplib_finds_in_its_order(motion):
+    from robolab_ms.policies.oracle.motion import seed_planner
+
+    start = motion.current_qpos()
+    for target in ik_targets(motion):
+        flange = motion.flange_target(target)
+        seed_planner(3)
+        expected_status, expected = motion.planner.IK(flange, start)
+        seed_planner(3)
+        status, found = motion.flange_ik(flange, start)
+        assert status == expected_status
+        assert len(found) == len(expected) and all(np.allclose(a, b) for a, b in zip(found, expected))
+
+
+def test_inverse_kinematics_stops_at_the_first_posture_that_serves_and_draws_its_random_starts_all_the_same(motion):
+    from robolab_ms.policies.oracle.motion import any_posture, seed_planner
+
+    start = motion.current_qpos()
+    target = motion.flange_target(ik_targets(motion)[0])
+    seed_planner(5)
+    _, every = motion.flange_ik(target, start)
+    after_every = motion.flange_ik(target, start)[1]
+    assert len(every) >= 2
+    seed_planner(5)
+    status, first = motion.flange_ik(target, start, serves=any_posture)
+    assert status == "Success" and len(first) == 1 and np.allclose(first[0], every[0])
+    assert all(np.allclose(a, b) for a, b in zip(motion.flange_ik(target, start)[1], after_every))
+    seed_planner(5)
+    status, second = motion.flange_ik(target, start, serves=lambda posture: not np.allclose(posture, every[0]))
+    assert status == "Success" and np.allclose(second[0], every[1])  # the first is passed over
+    seed_planner(5)
+    status, none = motion.flange_ik(target, start, serves=lambda posture: False)
+    assert status != "Success" and len(none) == len(every)  # none serves: every posture found, for a fallback
+
+
+def test_inverse_kinematics_out_of_reach_finds_no_posture(motion):
+    from robolab_ms.policies.oracle.motion import any_posture
+
+    start = motion.current_qpos()
+    far = motion.flange_target(ik_targets(motion)[-1])
+    status, found = motion.flange_ik(far, start, serves=any_posture)
+    assert status.startswith("IK Failed") and found == []
+    assert not motion.can_lower(ik_targets(motion)[-1], ik_targets(motion)[-1])
+
+
 def test_points_inside_a_box_are_found_as_without_the_bounding_ball():
     from robolab_ms.policies.oracle.geometry import inside_boxes, rotation_about
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -44,7 +44,10 @@ if TYPE_CHECKING:
 
 GRIPPER_STEPS = 8  # control steps to close or open the gripper (about half a second)
 SETTLE_STEPS = 3  # control steps held at the end of every move, for the PD controller to catch up
-IK_RETRIES = 200  # random starts for inverse kinematics when the planner's own 20 found no solution
+IK_STARTS = 20  # starts of inverse kinematics: the current joints, then random ones (mplib's count)
+IK_RETRIES = 200  # random starts for inverse kinematics when IK_STARTS found no solution
+IK_TOLERANCE = 1e-3  # largest error of a solution: metres plus the quaternion difference (mplib's threshold)
+DISTINCT_POSTURE = 0.1  # rad (norm of the joint differences) between two postures inverse kinematics returns
 PLANNING_JOINT_SPEED = 1.2  # rad/s, well under the Panda's limits: smooth moves the PD controller can follow
 PLANNING_JOINT_ACCELERATION = 1.5  # rad/s^2
 JOINT_PATH_RESOLUTION = 0.05  # rad between the configurations checked for self-collision along a joint path
@@ -67,6 +70,12 @@ FIXTURE_MARGIN = 0.02  # m the fixtures grow by while a posture and the way down
 LOWER_STEP = 0.05  # m between the lower heights over the grasp tried where no posture at the planned one has one
 
 Plan = dict[str, Any]  # mplib's result: "status", and "position" (rows of 7 arm joints) on success
+Serves = Callable[[np.ndarray], bool]  # whether a posture found by inverse kinematics serves the caller
+
+
+def any_posture(posture: np.ndarray) -> bool:
+    """Serves every posture: an inverse-kinematics search that stops at the first one found."""
+    return True
 
 
 def seed_planner(seed: int) -> None:
@@ -203,12 +212,54 @@ class MotionPlanner:
         tcp = sapien.Pose(p=flange[:3], q=flange[3:]) * self.tcp_in_flange
         return np.concatenate([tcp.p, tcp.q])
 
-    def ik(self, pose: np.ndarray, qpos: np.ndarray, starts: int | None = None) -> tuple[str, list[np.ndarray]]:
-        """Inverse kinematics for TCP `pose` from posture `qpos` (the planner's own random starts, or `starts`):
-        (status, postures)."""
-        if starts is None:
-            return self.planner.IK(self.flange_target(pose), qpos)
-        return self.planner.IK(self.flange_target(pose), qpos, n_init_qpos=starts)
+    def ik(
+        self, pose: np.ndarray, qpos: np.ndarray, starts: int | None = None, serves: Serves | None = None
+    ) -> tuple[str, list[np.ndarray]]:
+        """Inverse kinematics for TCP `pose` (`flange_ik`)."""
+        return self.flange_ik(self.flange_target(pose), qpos, starts or IK_STARTS, serves)
+
+    def flange_ik(
+        self, flange_pose: np.ndarray, qpos: np.ndarray, starts: int = IK_STARTS, serves: Serves | None = None
+    ) -> tuple[str, list[np.ndarray]]:
+        """Inverse kinematics for flange pose `flange_pose`: (status, postures), the distinct postures free of
+        collisions that put the flange there, solved from `qpos` and then from `starts` - 1 random joints, in the
+        order found (the answer of mplib's `Planner.IK`, whose random starts the C library's generator draws).
+
+        With `serves`, the search stops at the first posture that serves: status "Success" and that posture alone;
+        where none serves, a status that says so and every posture found. The random starts not tried are still
+        drawn, so that what the planner does next does not depend on where the search stopped."""
+        planner = self.planner
+        model, link = planner.pinocchio_model, planner.link_name_2_idx[FLANGE_LINK]
+        group = planner.move_group_joint_indices
+        planner.robot.set_qpos(qpos, True)
+        found: list[np.ndarray] = []
+        nearest, served = np.inf, None
+        start = np.array(qpos, dtype=np.float64)
+        for _ in range(starts):
+            if served is None:
+                posture = np.asarray(model.compute_IK_CLIK(link, flange_pose, start)[0])
+                valid = planner.wrap_joint_limit(posture)
+                if valid:
+                    planner.planning_world.set_qpos_all(posture[group])
+                    valid = not planner.planning_world.collide_full()
+                if valid:
+                    model.compute_forward_kinematics(posture)
+                    reached = np.asarray(model.get_link_pose(link))
+                    error = planner.distance_6D(flange_pose[:3], flange_pose[3:], reached[:3], reached[3:])
+                    nearest = min(nearest, error)
+                    distinct = all(np.linalg.norm(other[group] - posture[group]) >= DISTINCT_POSTURE for other in found)
+                    if error < IK_TOLERANCE and distinct:
+                        found.append(posture)
+                        if serves is not None and serves(posture):
+                            served = posture
+            start = model.get_random_configuration()
+        if served is not None:
+            return "Success", [served]
+        if found:
+            return ("Success" if serves is None else "no posture found serves"), found
+        if np.isfinite(nearest):
+            return f"IK Failed! Distance {nearest:f} is greater than threshold {IK_TOLERANCE:f}.", found
+        return "IK Failed! Cannot find valid solution.", found
 
     # -------------------------------------------------------------------------------------------- collisions
     def sync_fixtures(self) -> None:
@@ -345,20 +396,33 @@ class MotionPlanner:
         _, position, *_ = self.planner.TOPP(waypoints, self.time_step)
         return position
 
+    def free_joint_path(self, qpos: np.ndarray, goal: np.ndarray) -> np.ndarray | None:
+        """The postures every JOINT_PATH_RESOLUTION along the straight line in joint space from `qpos` to `goal`,
+        or None where one of them collides."""
+        count = int(np.ceil(np.max(np.abs(goal[:7] - qpos[:7])) / JOINT_PATH_RESOLUTION)) + 1
+        path = np.linspace(qpos, goal, max(count, 2))
+        if any(self.collides(point) for point in path):
+            return None
+        return path
+
     def plan_to_joints(self, goals: list[np.ndarray], qpos: np.ndarray) -> Plan:
         """A timed joint path to the first goal reachable by a straight line in joint space free of collisions; a
         sampling planner (seeded by `seed_planner`) only when no straight line is free."""
-        planner, step = self.planner, self.time_step
         for goal in goals:
-            count = int(np.ceil(np.max(np.abs(goal[:7] - qpos[:7])) / JOINT_PATH_RESOLUTION)) + 1
-            path = np.linspace(qpos, goal, max(count, 2))
-            if any(self.collides(point) for point in path):
+            path = self.free_joint_path(qpos, goal)
+            if path is None:
                 continue
-            if count == 1:
+            if np.array_equal(goal[:7], qpos[:7]):
                 return {"status": "Success", "position": path[-1:, :7]}
-            _, position, *_ = planner.TOPP(path[:, :7], step)
+            _, position, *_ = self.planner.TOPP(path[:, :7], self.time_step)
             return {"status": "Success", "position": position}
-        result = planner.plan_qpos_to_qpos(goals, qpos, time_step=step, planning_time=SAMPLED_PLANNING_TIME)
+        return self.sampled_path(goals, qpos)
+
+    def sampled_path(self, goals: list[np.ndarray], qpos: np.ndarray) -> Plan:
+        """A timed joint path to one of `goals` found by a sampling planner (RRT-Connect, seeded by
+        `seed_planner`), free of collisions with the held object too."""
+        planner = self.planner
+        result = planner.plan_qpos_to_qpos(goals, qpos, time_step=self.time_step, planning_time=SAMPLED_PLANNING_TIME)
         if result["status"] == "Success" and self.held is not None:  # the sampled planner knows nothing of it
             posture = qpos.copy()
             for joints in result["position"]:
@@ -411,16 +475,22 @@ class MotionPlanner:
     def move(self, qpos: np.ndarray, pose: np.ndarray, what: str, straight: bool = True) -> np.ndarray:
         """Queue the actions of one move to TCP `pose`, a straight line if `straight` and one can be planned;
         returns the final joints. OracleFailure, saying `what` could not be done, where no move is planned."""
-        planner = self.planner
         pose = self.flange_target(pose)
         result = self.plan_straight(pose, qpos) if straight else {"status": "not tried"}
         if straight and result["status"] != "Success":  # at the edge of the workspace: a straight line that may miss
             result = self.screw(pose, qpos)  # the pose by a centimetre, or none
         if result["status"] != "Success":
-            status, goals = planner.IK(pose, qpos)
-            if status != "Success":  # near the edge of the workspace: try harder
-                status, goals = planner.IK(pose, qpos, n_init_qpos=IK_RETRIES)
-            result = self.plan_to_joints(goals, qpos) if status == "Success" else {"status": status}
+
+            def free_line(goal: np.ndarray) -> bool:
+                return self.free_joint_path(qpos, goal) is not None
+
+            status, goals = self.flange_ik(pose, qpos, serves=free_line)
+            if not goals:  # near the edge of the workspace: try harder
+                status, goals = self.flange_ik(pose, qpos, IK_RETRIES, serves=free_line)
+            if status == "Success":
+                result = self.plan_to_joints(goals, qpos)
+            else:  # no posture found has a free straight line in joint space
+                result = self.sampled_path(goals, qpos) if goals else {"status": status}
         if result["status"] != "Success":
             raise OracleFailure(f"cannot {what}: no motion plan ({result['status']}); the pose may be unreachable")
         return self.queue(qpos, result["position"])
@@ -437,7 +507,7 @@ class MotionPlanner:
     def can_lower(self, over: np.ndarray, place: np.ndarray, starts: int | None = None) -> bool:
         """Whether the arm reaches TCP pose `over` (by inverse kinematics, from the planner's own random starts or
         `starts` of them) and from there moves straight to `place`."""
-        status, postures = self.ik(over, self.current_qpos(), starts)
+        status, postures = self.ik(over, self.current_qpos(), starts, serves=any_posture)
         if status != "Success":
             return False
         start = self.current_qpos()

@@ -44,7 +44,7 @@ from robolab_ms.policies.oracle.grasps import (
     side_step_path,
     snug,
 )
-from robolab_ms.policies.oracle.motion import GRIPPER_STEPS, IK_RETRIES, MotionPlanner
+from robolab_ms.policies.oracle.motion import GRIPPER_STEPS, IK_RETRIES, MotionPlanner, any_posture
 from robolab_ms.policies.oracle.places import (
     RELEASE_CLEARANCE,
     Reachable,
@@ -291,7 +291,7 @@ def placing_reach(motion: MotionPlanner, name: str, grasp: np.ndarray) -> Reacha
         way = front_place_way(motion, name, grasp, place)
         if way is None:
             return False
-        status, postures = motion.ik(way, motion.current_qpos())
+        status, postures = motion.ik(way, motion.current_qpos(), serves=any_posture)
         if status != "Success":
             return False
         start = motion.current_qpos()
@@ -428,7 +428,7 @@ def reachable_above(motion: MotionPlanner, grasp: np.ndarray, over: np.ndarray) 
             pose = grasp.copy()
             pose[:2] += toward * back
             pose[2] = height
-            status, _ = motion.ik(pose, motion.current_qpos(), IK_RETRIES)
+            status, _ = motion.ik(pose, motion.current_qpos(), IK_RETRIES, serves=any_posture)
             if status == "Success":
                 return pose
     return over
