@@ -398,7 +398,8 @@ class MotionPlanner:
 
     def free_joint_path(self, qpos: np.ndarray, goal: np.ndarray) -> np.ndarray | None:
         """The postures every JOINT_PATH_RESOLUTION along the straight line in joint space from `qpos` to `goal`,
-        or None where one of them collides."""
+        untimed, or None where one of them collides (`free_joint_line` times it and lets the arm leave a collision it
+        starts in)."""
         count = int(np.ceil(np.max(np.abs(goal[:7] - qpos[:7])) / JOINT_PATH_RESOLUTION)) + 1
         path = np.linspace(qpos, goal, max(count, 2))
         if any(self.collides(point) for point in path):
