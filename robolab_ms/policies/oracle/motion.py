@@ -411,13 +411,17 @@ class MotionPlanner:
         sampling planner (seeded by `seed_planner`) only when no straight line is free."""
         for goal in goals:
             path = self.free_joint_path(qpos, goal)
-            if path is None:
-                continue
-            if np.array_equal(goal[:7], qpos[:7]):
-                return {"status": "Success", "position": path[-1:, :7]}
-            _, position, *_ = self.planner.TOPP(path[:, :7], self.time_step)
-            return {"status": "Success", "position": position}
+            if path is not None:
+                return self.timed_joint_path(path)
         return self.sampled_path(goals, qpos)
+
+    def timed_joint_path(self, path: np.ndarray) -> Plan:
+        """The plan along the postures `path` (`free_joint_path`), timed; its last posture alone where the path
+        does not move the arm."""
+        if np.array_equal(path[0, :7], path[-1, :7]):
+            return {"status": "Success", "position": path[-1:, :7]}
+        _, position, *_ = self.planner.TOPP(path[:, :7], self.time_step)
+        return {"status": "Success", "position": position}
 
     def sampled_path(self, goals: list[np.ndarray], qpos: np.ndarray) -> Plan:
         """A timed joint path to one of `goals` found by a sampling planner (RRT-Connect, seeded by
@@ -481,15 +485,17 @@ class MotionPlanner:
         if straight and result["status"] != "Success":  # at the edge of the workspace: a straight line that may miss
             result = self.screw(pose, qpos)  # the pose by a centimetre, or none
         if result["status"] != "Success":
+            line: list[np.ndarray | None] = [None]  # the free joint path to the last posture tried
 
             def free_line(goal: np.ndarray) -> bool:
-                return self.free_joint_path(qpos, goal) is not None
+                line[0] = self.free_joint_path(qpos, goal)
+                return line[0] is not None
 
             status, goals = self.flange_ik(pose, qpos, serves=free_line)
             if not goals:  # near the edge of the workspace: try harder
                 status, goals = self.flange_ik(pose, qpos, IK_RETRIES, serves=free_line)
-            if status == "Success":
-                result = self.plan_to_joints(goals, qpos)
+            if status == "Success":  # the search stopped at the posture with a free line
+                result = self.timed_joint_path(line[0])
             else:  # no posture found has a free straight line in joint space
                 result = self.sampled_path(goals, qpos) if goals else {"status": status}
         if result["status"] != "Success":
