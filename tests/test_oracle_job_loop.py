@@ -103,27 +103,54 @@ def test_a_job_given_up_hands_over_to_a_spare_object(oracle_on):
 
 
 def test_the_oracle_gives_up_once_every_retry_is_used_instead_of_running_out_the_time(oracle_on):
-    """A job whose plan leaves its object where it was is planned again JOB_RETRIES times; then, once the object has
-    lain still GIVE_UP_STEPS, the oracle raises OracleFailure naming it, so a hopeless episode ends there rather than
-    idling to its time limit."""
+    """A job whose plan leaves its object where it was is planned again JOB_RETRIES times; once the object has lain
+    still GIVE_UP_STEPS the job has its last try, and once it lies still that long again the oracle raises
+    OracleFailure naming it, so a hopeless episode ends there rather than idling to its time limit."""
     from robolab_ms.policies.oracle import OracleFailure
     from robolab_ms.policies.oracle.policy import GIVE_UP_STEPS, JOB_RETRIES
 
     env, oracle = oracle_on("BananaInBowl")
+    planned = _still_plans(oracle)
+    with pytest.raises(OracleFailure, match="gave up on 'banana'"):
+        _run(env, oracle, 1000)
+    assert planned == ["banana"] * (JOB_RETRIES + 2)
+    assert oracle._last_tried == {"banana"}
+    assert oracle.steps_run >= 2 * GIVE_UP_STEPS and oracle.steps_run < 300
+
+
+def test_an_object_that_never_comes_to_rest_has_its_last_try_after_a_bounded_wait(oracle_on, monkeypatch):
+    """Retries used up, an object left out of place that keeps moving (a tool rocking on another one) is waited for
+    GIVE_UP_WAIT_STEPS at most before its last try, and as long again before the oracle gives up."""
+    from robolab_ms.policies.oracle import OracleFailure
+    from robolab_ms.policies.oracle.policy import GIVE_UP_WAIT_STEPS, JOB_RETRIES
+
+    env, oracle = oracle_on("BananaInBowl")
+    planned = _still_plans(oracle)
+    monkeypatch.setattr(oracle, "_lie_still", lambda names: False)
+    with pytest.raises(OracleFailure, match="gave up on 'banana'"):
+        _run(env, oracle, 2000)
+    assert planned == ["banana"] * (JOB_RETRIES + 2)
+    assert 2 * GIVE_UP_WAIT_STEPS <= oracle.steps_run < 2 * GIVE_UP_WAIT_STEPS + 200
+
+
+def _still_plans(oracle) -> list[str]:
+    """Replace `oracle`'s planning by one still step that moves nothing; the jobs planned go to the list returned."""
     planned = []
 
-    def plan(job):  # one still step that moves nothing
+    def plan(job):
         planned.append(job.obj)
         oracle.motion.hold(oracle.motion.current_qpos(), 0.0, 1)
 
     oracle._plan_job = plan
-    steps = 0
-    with pytest.raises(OracleFailure, match="gave up on 'banana'"):
-        while steps < 500:
-            env.step(oracle.act({}))
-            steps += 1
-    assert planned == ["banana"] * (JOB_RETRIES + 1)
-    assert steps >= GIVE_UP_STEPS and steps < 200
+    return planned
+
+
+def _run(env, oracle, limit: int) -> None:
+    """Step `env` with `oracle`'s actions up to `limit` steps, counting them in `oracle.steps_run`."""
+    oracle.steps_run = 0
+    while oracle.steps_run < limit:
+        env.step(oracle.act({}))
+        oracle.steps_run += 1
 
 
 def test_the_oracle_waits_for_an_object_still_moving_before_it_gives_up(tmp_path):

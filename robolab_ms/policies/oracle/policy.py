@@ -7,7 +7,8 @@ there (the object slipped, tipped or was never held) is planned again from the n
 with a different grasp first. A job that cannot be planned at all goes after the others, since moving them may
 free its way; the first DEFERRALS times it waits without using up a retry, unless none of the jobs queued can
 be planned. Where the condition asks for only some of its objects, a job given up hands over to a spare one
-on another of them. When it cannot go on it raises OracleFailure saying why.
+on another of them. Once every retry is used up, the objects still out of place have their jobs planned one last
+time from where they came to rest. When it cannot go on it raises OracleFailure saying why.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ JOB_RETRIES = 2  # times a job whose object did not get where the condition want
 JOB_SETTLE_STEPS = 10  # control steps held still before a job's object is checked a second time (it may still roll)
 GIVE_UP_STEPS = 30  # control steps the objects not where they belong lie still, once every job's retries are used
 # up, before the oracle gives up (while one still moves, it may come to rest where it belongs: the oracle waits)
+GIVE_UP_WAIT_STEPS = 300  # control steps at most waited for those objects to lie still before the last try
 REST_CHECK_STEPS = 10  # control steps held still between two looks at whether those objects lie still
 REST_SPEED = 0.01  # m/s (and rad/s): an object slower than this, moving and turning, lies still
 SLIP_DISTANCE = 0.05  # m the held object may move away from the hand (its grip settled) before it counts as slipped
@@ -91,6 +93,8 @@ class OraclePolicy(Policy):
         self._closed_steps = 0  # actions replayed in a row with the gripper closed
         self._held_offset: float | None = None  # the held object's distance from the hand once the grip settled
         self._still_steps = 0  # steps the objects left where they do not belong have lain still, retries used up
+        self._waited_steps = 0  # steps held still since every job's retries were used up, for the objects left
+        self._last_tried: set[str] = set()  # objects whose jobs had their last try (see `_last_try`)
         self._deferred: dict[str, int] = {}  # per object: times its job waited for the others without a retry
         self._unplanned: set[str] = set()  # objects whose jobs failed to plan since the last plan that worked
 
@@ -103,16 +107,20 @@ class OraclePolicy(Policy):
                 left = [job.obj for job in self.compiled if not job_done(self.env, job)]
                 if not left:  # everything done: hold still with the gripper open
                     return motion.action(motion.current_qpos(), 0.0)
-                if self._still_steps >= GIVE_UP_STEPS:  # the episode would only run out its time
-                    raise OracleFailure(
+                if self._still_steps >= GIVE_UP_STEPS or self._waited_steps >= GIVE_UP_WAIT_STEPS:
+                    if self._last_try(left):
+                        continue
+                    raise OracleFailure(  # the episode would only run out its time
                         f"gave up on {', '.join(repr(name) for name in left)}: not where the task wants "
                         f"after {JOB_RETRIES} retries each"
                     )
                 self._still_steps = self._still_steps + REST_CHECK_STEPS if self._lie_still(left) else 0
+                self._waited_steps += REST_CHECK_STEPS
                 motion.hold(motion.current_qpos(), 0.0, REST_CHECK_STEPS)
                 continue
             job = self.jobs.popleft()
             self.job, self._job_settled = job, False  # _plan_job may hand the check to a job it queues
+            self._waited_steps = 0
             try:
                 self._plan_job(job)
             except OracleFailure:
@@ -177,6 +185,16 @@ class OraclePolicy(Policy):
         undone = [job for job in self.compiled if not job_done(self.env, job)]
         queued = [job for job in undone if self._retry(job, first=False)]
         return bool(queued)
+
+    def _last_try(self, left: list[str]) -> bool:
+        """Once every job's retries are used up and the objects of `left`, not where the task wants them, lie still
+        (or have moved for GIVE_UP_WAIT_STEPS): queue the job of each that has not had it once more, from where it
+        came to rest (a dropped tool may lie where another grasp reaches it); whether any was queued."""
+        jobs = [job for job in self.compiled if job.obj in left and job.obj not in self._last_tried]
+        self._last_tried.update(job.obj for job in jobs)
+        self.jobs.extend(jobs)
+        self._still_steps = self._waited_steps = 0
+        return bool(jobs)
 
     def _defer(self, job: Job) -> bool:
         """Put `job`, which could not be planned, after the others without using up one of its retries, unless
