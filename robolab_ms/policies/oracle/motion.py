@@ -35,6 +35,7 @@ from robolab_ms.policies.oracle.failure import OracleFailure
 from robolab_ms.policies.oracle.geometry import boxes_overlap, matrix_to_quaternion, quat_to_matrix
 from robolab_ms.policies.oracle.gripper import FINGERTIP_BELOW_TCP, hand_clear
 from robolab_ms.policies.oracle.planning_model import planning_urdf
+from robolab_ms.policies.oracle.reach import ArmReach
 from robolab_ms.policies.oracle.world import fixture_boxes, world_points
 
 if TYPE_CHECKING:
@@ -139,6 +140,7 @@ class MotionPlanner:
 
     def __init__(self, env: RoboLabEnv) -> None:
         self.planner = make_planner(env)
+        self.reach = ArmReach.of(self.planner, FLANGE_LINK)
         self.robot = env.robot_uids
         self.env = env
         self.actions: deque[np.ndarray] = deque()
@@ -227,11 +229,16 @@ class MotionPlanner:
 
         With `serves`, the search stops at the first posture that serves: status "Success" and that posture alone;
         where none serves, a status that says so and every posture found. The random starts not tried are still
-        drawn, so that what the planner does next does not depend on where the search stopped."""
+        drawn, so that what the planner does next does not depend on where the search stopped. A pose out of the
+        arm's reach (`reach.ArmReach`) is not searched; its starts are drawn all the same."""
         planner = self.planner
         model, link = planner.pinocchio_model, planner.link_name_2_idx[FLANGE_LINK]
         group = planner.move_group_joint_indices
         planner.robot.set_qpos(qpos, True)
+        if self.reach.out_of_reach(flange_pose):  # no start would converge: skip the search, draw its starts
+            for _ in range(starts):
+                model.get_random_configuration()
+            return f"IK Failed! The pose is {self.reach.beyond(flange_pose):f} m beyond the arm's reach.", []
         found: list[np.ndarray] = []
         nearest, served = np.inf, None
         start = np.array(qpos, dtype=np.float64)
