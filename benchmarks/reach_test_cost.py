@@ -1,5 +1,6 @@
 """What the oracle's tests of reach cost with its own inverse kinematics (`MotionPlanner.flange_ik`, stopping at the
-first posture found), against mplib's `Planner.IK`, which runs every random start to the end.
+first posture found and not searching poses its geometry rules out, `reach.ArmReach`), against mplib's
+`Planner.IK`, which runs every random start to the end.
 
 Both draw the same random starts (from the C library's generator, seeded by `motion.seed_planner`), so they answer
 the same for every pose, and the posture the oracle keeps (the first found) is the same. On the task's scene at
@@ -9,8 +10,9 @@ each round's seconds, their ratio (flange_ik / mplib) and whether both answered 
 
     .venv/bin/python benchmarks/reach_test_cost.py [--task BlackItemsInBin] [--poses 200] [--rounds 3]
 
-Where the pose is reachable the first start usually finds a posture and the other 19 are skipped; where it is out of
-reach every start runs its 1,000 iterations either way, so the ratio depends on the share of poses in reach.
+Where the pose is reachable the first start usually finds a posture and the other 19 are skipped; where it is out
+of reach mplib runs every start's 1,000 iterations, and flange_ik none where the arm's geometry rules the pose out
+(those within the geometric reach but unreachable, by joint limits or the turn of the hand, still run them all).
 """
 
 from __future__ import annotations
