@@ -5,8 +5,8 @@ iteration).
 The origin of the first link lies on the axes of the first two joints, so it never moves: the shoulder. The origin
 of the sixth link, the wrist, is as far from the shoulder as the elbow (the fourth joint) alone makes it, at most
 `ArmReach.reach`. The flange pose fixes the last joint's axis and the origin of the last link on it; the wrist lies
-on a circle about that axis, through that origin. A pose whose circle stays farther from the shoulder than the reach
-everywhere is out of reach.
+on a circle about that axis, centred on that origin (`wrist_radius` across). A pose whose circle stays farther from
+the shoulder than the reach everywhere is out of reach.
 """
 
 from __future__ import annotations
