@@ -54,8 +54,7 @@ class ArmReach:
             qpos[ELBOW] = elbow
             at = poses(qpos)
             distances.append(np.linalg.norm(at[WRIST_LINK][:3, 3] - at[SHOULDER_LINK][:3, 3]))
-        at = poses(qpos)
-        model.compute_forward_kinematics(qpos)
+        # the model still holds the forward kinematics of the last elbow angle, the one `at` was read at
         flange = _matrix(model.get_link_pose(index[flange_link]))
         last = at[LAST_LINK]
         offset = last[:3, 3] - at[WRIST_LINK][:3, 3]
