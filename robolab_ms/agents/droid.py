@@ -14,16 +14,12 @@ from functools import cached_property
 import numpy as np
 import sapien
 from mani_skill.agents.base_agent import BaseAgent, Keyframe
-from mani_skill.agents.controllers import (
-    PassiveControllerConfig,
-    PDJointPosControllerConfig,
-    PDJointPosMimicControllerConfig,
-    deepcopy_dict,
-)
+from mani_skill.agents.controllers import PassiveControllerConfig, deepcopy_dict
 from mani_skill.agents.registration import register_agent
 from mani_skill.utils.structs.pose import Pose
 
 from robolab_ms.agents import droid_model as model
+from robolab_ms.agents.controllers import JointPosControllerConfig, MimicJointPosControllerConfig
 
 ARM_STIFFNESS = 400.0
 ARM_DAMPING = 80.0
@@ -60,7 +56,7 @@ class DroidPandaRobotiq(BaseAgent):
 
     @property
     def _controller_configs(self) -> dict:
-        arm = PDJointPosControllerConfig(
+        arm = JointPosControllerConfig(
             self.arm_joint_names,
             lower=None,
             upper=None,
@@ -70,7 +66,7 @@ class DroidPandaRobotiq(BaseAgent):
             normalize_action=False,
         )
         left, right = model.DRIVEN_GRIPPER_JOINTS
-        gripper = PDJointPosMimicControllerConfig(
+        gripper = MimicJointPosControllerConfig(
             list(model.DRIVEN_GRIPPER_JOINTS),
             lower=0.0,
             upper=model.GRIPPER_CLOSED_RAD,
