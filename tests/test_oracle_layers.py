@@ -342,6 +342,43 @@ def test_a_chain_of_straight_moves_is_the_same_timed_at_once_or_at_the_end(motio
     assert np.allclose(motion.tcp_at(np.concatenate([late[-1][-1], start[7:]]))[:3], grasp[:3], atol=2e-3)
 
 
+def test_a_straight_move_follows_the_line_and_the_shortest_turn(motion):
+    """Every waypoint of a straight move puts the flange on the line to the goal, turned by the same fraction of
+    the shortest turn, at most STRAIGHT_STEP apart and STRAIGHT_TURN radians apart."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    from robolab_ms.policies.oracle.motion import FLANGE_LINK, STRAIGHT_STEP, STRAIGHT_TURN
+
+    start = motion.current_qpos()
+    goal_tcp = raised(grasp_pose(motion.env, "red"), APPROACH_HEIGHT)
+    turn = Rotation.from_euler("z", 0.6) * Rotation.from_quat(np.roll(goal_tcp[3:], -1))
+    goal_tcp[3:] = np.roll(turn.as_quat(), 1)  # (w, x, y, z)
+    goal = motion.flange_target(goal_tcp)
+    waypoints = motion.straight_waypoints(goal, start)
+    assert waypoints is not None and len(waypoints) > 10
+
+    model, flange = motion.planner.pinocchio_model, motion.planner.link_name_2_idx[FLANGE_LINK]
+
+    def flange_at(joints: np.ndarray) -> np.ndarray:
+        model.compute_forward_kinematics(np.concatenate([joints, start[7:]]))
+        return np.asarray(model.get_link_pose(flange))
+
+    first = flange_at(waypoints[0])
+    turns = Rotation.from_quat([np.roll(first[3:], -1), np.roll(goal[3:], -1)])
+    shortest = Slerp([0.0, 1.0], turns)
+    count = len(waypoints) - 1
+    reached = [flange_at(joints) for joints in waypoints]
+    for index, pose in enumerate(reached[1:], start=1):
+        fraction = index / count
+        assert np.allclose(pose[:3], first[:3] + fraction * (goal[:3] - first[:3]), atol=1e-3)
+        off = (shortest(fraction).inv() * Rotation.from_quat(np.roll(pose[3:], -1))).magnitude()
+        assert off < 2e-3, (index, off)
+    for before, after in zip(reached, reached[1:]):
+        assert np.linalg.norm(after[:3] - before[:3]) <= STRAIGHT_STEP + 2e-3
+        step_turn = Rotation.from_quat(np.roll(before[3:], -1)).inv() * Rotation.from_quat(np.roll(after[3:], -1))
+        assert step_turn.magnitude() <= STRAIGHT_TURN + 4e-3
+
+
 def test_a_carried_object_is_kept_clear_of_a_shelf_post():
     """Over a post of the wire shelf, with the hand clear of it, a mug hanging below the fingers would hit it: the
     posture collides while the planner carries the mug (`carrying`), and not before or after. The post is narrower

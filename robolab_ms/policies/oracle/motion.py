@@ -376,13 +376,12 @@ class MotionPlanner:
         angle = (turns[0].inv() * turns[1]).magnitude()
         distance = float(np.linalg.norm(flange_pose[:3] - start[:3]))
         count = max(1, int(np.ceil(max(distance / STRAIGHT_STEP, angle / STRAIGHT_TURN))))
-        slerp = Slerp([0.0, 1.0], turns)
+        fractions = np.arange(1, count + 1) / count
+        orientations = np.roll(Slerp([0.0, 1.0], turns)(fractions).as_quat(), 1, axis=1)  # (w, x, y, z) order
         lower, upper = np.asarray(planner.joint_limits)[:7].T
         current, path = qpos.copy(), [qpos[:7].copy()]
-        for fraction in np.arange(1, count + 1) / count:
-            waypoint = np.concatenate(
-                [start[:3] + fraction * (flange_pose[:3] - start[:3]), np.roll(slerp(fraction).as_quat(), 1)]
-            )
+        for fraction, orientation in zip(fractions, orientations, strict=True):
+            waypoint = np.concatenate([start[:3] + fraction * (flange_pose[:3] - start[:3]), orientation])
             solution, converged, _ = model.compute_IK_CLIK(flange, waypoint, current)
             solution = np.asarray(solution)
             if (
