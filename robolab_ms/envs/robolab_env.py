@@ -400,7 +400,9 @@ class RoboLabEnv(BaseEnv):
     def evaluate(self) -> dict[str, torch.Tensor]:
         """Success (any success condition holds), score in [0, 1], subtask progress and stage, and which events
         fired this step (`event_<type>`), for every environment."""
-        return self.task_evaluator.evaluate(self.elapsed_steps, self.gripper_closed_fraction())
+        evaluator = self.task_evaluator
+        closed = self.gripper_closed_fraction() if evaluator.track_events else None  # only events read it
+        return evaluator.evaluate(self.elapsed_steps, closed)
 
     def get_info(self) -> dict[str, Any]:
         info = super().get_info()

@@ -52,9 +52,10 @@ class TaskEvaluator:
         self.events.reset(env_idx)
         self._last = self._last_inputs = None
 
-    def evaluate(self, elapsed_steps: torch.Tensor, gripper_closed: torch.Tensor) -> dict[str, torch.Tensor]:
+    def evaluate(self, elapsed_steps: torch.Tensor, gripper_closed: torch.Tensor | None) -> dict[str, torch.Tensor]:
         """This step's success, score, progress, stage and `event_<type>` flags (which events fired), each (E,).
-        `gripper_closed`: how far the gripper is closed, 0 open to 1 closed, (E,)."""
+        `gripper_closed`: how far the gripper is closed, 0 open to 1 closed, (E,); only events read it (None will do
+        where `track_events` is off)."""
         context = self.context
         context.refresh(elapsed_steps)
         finger_contacts = context.finger_contacts_if_at_rest()
@@ -77,7 +78,7 @@ class TaskEvaluator:
         self._last_inputs = (finger_contacts, closed_levels) if reusable else None
         return result
 
-    def _evaluate_in_full(self, gripper_closed: torch.Tensor) -> dict[str, torch.Tensor]:
+    def _evaluate_in_full(self, gripper_closed: torch.Tensor | None) -> dict[str, torch.Tensor]:
         context, tracker = self.context, self.progress_tracker
         success = evaluate_condition(context, self.spec.success[0])
         for condition in self.spec.success[1:]:
