@@ -112,7 +112,7 @@ class OraclePolicy(Policy):
                         continue
                     raise OracleFailure(  # the episode would only run out its time
                         f"gave up on {', '.join(repr(name) for name in left)}: not where the task wants "
-                        f"after {JOB_RETRIES} retries each"
+                        f"after {JOB_RETRIES} retries and a last try each"
                     )
                 self._still_steps = self._still_steps + REST_CHECK_STEPS if self._lie_still(left) else 0
                 self._waited_steps += REST_CHECK_STEPS
