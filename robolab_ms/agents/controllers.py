@@ -1,10 +1,10 @@
 """The `droid` agent's joint position controllers: ManiSkill's PD joint position controllers (the arm's, and the
 mimic one of the gripper), whose drive targets reach the CPU simulator in one pass over the joints.
 
-ManiSkill sets a target on the CPU simulator joint by joint, each through a tensor conversion of its own; that is
-about a fifth of a random-policy control step of `robolab validate`. These controllers write the same float32 numbers
-to the same joints (the simulation is unchanged, bit for bit: tests/test_controllers.py), and leave the GPU
-simulator to ManiSkill.
+ManiSkill sets a target on the CPU simulator joint by joint, each through a tensor conversion of its own: about a
+quarter of what the controllers cost in a control step (benchmarks/drive_targets_cost.py). These controllers write
+the same float32 numbers to the same joints (the simulation is unchanged, bit for bit: tests/test_controllers.py),
+and leave the GPU simulator to ManiSkill.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from mani_skill.agents.controllers import (
 )
 
 
-def write_cpu_drive_targets(controller: PDJointPosController, targets: torch.Tensor) -> None:
+def _write_cpu_drive_targets(controller: PDJointPosController, targets: torch.Tensor) -> None:
     """Set each of the controller's joints' drive target on the CPU simulator (one environment): targets (1, J)."""
     for joint, target in zip(controller.joints, targets[0].tolist(), strict=True):
         joint._objs[0].set_drive_target(target)
@@ -33,7 +33,7 @@ class JointPosController(PDJointPosController):
         if self.scene.gpu_sim_enabled:
             super().set_drive_targets(targets)
         else:
-            write_cpu_drive_targets(self, targets)
+            _write_cpu_drive_targets(self, targets)
 
 
 class MimicJointPosController(PDJointPosMimicController):
@@ -43,7 +43,7 @@ class MimicJointPosController(PDJointPosMimicController):
         if self.scene.gpu_sim_enabled:
             super().set_drive_targets(targets)
         else:
-            write_cpu_drive_targets(self, targets)
+            _write_cpu_drive_targets(self, targets)
 
 
 @dataclass
