@@ -76,10 +76,15 @@ def main() -> None:
         return in_controllers[0] / args.steps * 1000, step_seconds / args.steps * 1000
 
     mine, baseline = [], []
-    for _ in range(args.rounds):
-        mine.append(block(ours))
-        baseline.append(block(maniskill))
-    env.close()
+    try:
+        for _ in range(args.rounds):
+            mine.append(block(ours))
+            baseline.append(block(maniskill))
+    finally:
+        for cls, writer in ours.items():
+            cls.set_drive_targets = writer
+        agent_class.set_action = set_action
+        env.close()
     mine_ms, baseline_ms = (statistics.median(ms for ms, _ in runs) for runs in (mine, baseline))
     mine_step, baseline_step = (statistics.median(ms for _, ms in runs) for runs in (mine, baseline))
     print(f"{args.task}: {args.rounds} blocks of {args.steps} random steps each way (CPU milliseconds per step)")
